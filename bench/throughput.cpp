@@ -1,0 +1,495 @@
+// Throughput on the CRESSim scene (BENCH_SCENES.md section 1): for each box half-size and
+// thread count, ms per frame, million particle-substeps per second, the share of each
+// named step stage, and bytes per particle. Prints a markdown table and writes it, with a
+// header naming the machine and the command, to <out>.md and <out>.csv.
+//
+//   bench_throughput --sizes 1,2.5 --threads 1,2 --frames 50 --out /tmp/throughput
+//
+// Wall time only means something on an idle machine: bench/run_throughput.sh checks that
+// first. Nothing here asserts on time.
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "mpm/error.h"
+#include "mpm/output.h"
+#include "mpm/scene.h"
+#include "scenes/standard_scenes.h"
+
+namespace {
+
+using mpm::scenes::CressimBench;
+
+#if defined(__clang__)
+constexpr const char* kCompiler = "Clang " __clang_version__;
+#elif defined(__GNUC__)
+constexpr const char* kCompiler = "GCC " __VERSION__;
+#else
+constexpr const char* kCompiler = "unknown";
+#endif
+
+constexpr int kWarmupFrames = 2;                   // untimed frames before each timed run
+constexpr size_t kLargeRunParticles = 500000;      // above this, --frames-large applies
+
+/// What the command line asks for.
+struct Options {
+  std::vector<float> sizes{0.5f, 1.f, 1.5f, 2.5f, 5.f};  ///< box half-sizes [m]
+  std::vector<int> threads{1, 2};                          ///< CPU worker threads per run
+  int frames = 100;       ///< timed frames per run
+  int framesLarge = 20;   ///< timed frames per run above kLargeRunParticles particles
+  int repeats = 3;        ///< runs per row; the row reports their median
+  /// A run during which other processes used more CPU than this [cores] is redone.
+  double maxOtherLoad = 0.1;
+  int retries = 5;          ///< redos of one run on a busy machine before keeping its best
+  double retryWait = 20;    ///< pause before a redo [s]
+  std::string out = "bench/results/throughput";  ///< path stem of the .md and .csv files
+};
+
+/// CRESSim-MPM v2.2.0 CPU solvers, serial, in M particle-substeps/s (PB-MPM: M
+/// particle-iterations/s), from BENCH_SCENES.md section 1.
+struct PeerFigure {
+  size_t particles;
+  double mlsMpm;
+  double standardMpm;
+  double pbMpm;
+};
+constexpr PeerFigure kCressim[] = {
+    {8000, 0.73, 0.88, 0.67},
+    {125000, 0.81, 0.97, 0.81},
+    {1000000, 0.81, 0.96, 0.72},
+};
+
+/// CRESSim's serial MLS-MPM figure at exactly this particle count, or NaN.
+double cressimMlsMpm(size_t particles) {
+  for (const PeerFigure& f : kCressim)
+    if (f.particles == particles) return f.mlsMpm;
+  return std::nan("");
+}
+
+/// One timed run: `frames` frames of a fresh scene after the warm-up.
+struct RunSample {
+  double wallSeconds = 0;   ///< steady-clock time of the timed frames [s]
+  double cpuSeconds = 0;    ///< process CPU time (all threads) of the timed frames [s]
+  long long substeps = 0;   ///< substeps the timed frames took
+  mpm::StageTimings stages; ///< the library's per-stage times over the timed frames
+  double otherLoad = 0;     ///< CPU used by other processes during the timed frames [cores]
+};
+
+/// One table row: a half-size at a thread count, over all its repeats.
+struct Row {
+  float halfSize = 0;
+  size_t particles = 0;
+  int threads = 0;
+  int frames = 0;
+  size_t memoryBytes = 0;
+  std::vector<RunSample> samples;
+
+  // derived by summarise()
+  bool summarised = false;
+  double msPerFrame = 0, msMin = 0, msMax = 0;
+  double cpuMsPerFrame = 0;
+  double mps = 0;  ///< million particle-substeps per second at the median time
+  double sortShare = 0, p2gShare = 0, gridShare = 0, g2pShare = 0, otherShare = 0;  ///< [%]
+  double bytesPerParticle = 0;
+  double otherLoad = 0;  ///< the most CPU other processes used during one of the runs [cores]
+  int redone = 0;        ///< runs redone because the machine was busy
+  double speedup = std::nan("");  ///< ms/frame at 1 thread over this row's; NaN without a 1-thread row
+  double cressim = std::nan("");  ///< CRESSim serial MLS-MPM M/s at this particle count
+};
+
+double processCpuSeconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/// CPU time all processes have used since boot [s], from /proc/stat; NaN if unreadable.
+double machineBusySeconds() {
+  std::ifstream in("/proc/stat");
+  std::string cpu;
+  unsigned long long user = 0, nice = 0, system = 0, idle = 0, iowait = 0, irq = 0, softirq = 0,
+                     steal = 0;
+  if (!(in >> cpu >> user >> nice >> system >> idle >> iowait >> irq >> softirq >> steal) ||
+      cpu != "cpu")
+    return std::nan("");
+  return (double)(user + nice + system + irq + softirq + steal) / (double)sysconf(_SC_CLK_TCK);
+}
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Particle count of the box at `halfSize`, read from a scene rather than recomputed, so
+/// that the frame count follows what the library actually samples.
+size_t particlesAt(float halfSize) {
+  mpm::Scene scene(CressimBench::settings(mpm::Backend::Cpu, 1));
+  scene.addParticleObject(CressimBench::box(halfSize));
+  return scene.particleCount();
+}
+
+/// Builds the scene, runs the warm-up and times `row.frames` frames.
+RunSample timeRun(Row& row, mpm::io::ProgressBar& progress, long long& framesDone) {
+  mpm::Scene scene(CressimBench::settings(mpm::Backend::Cpu, row.threads));
+  scene.addParticleObject(CressimBench::box(row.halfSize));
+  for (int f = 0; f < kWarmupFrames; ++f) {
+    scene.step(CressimBench::kFrameDt);
+    progress.update(++framesDone);
+  }
+  scene.resetTimings();
+
+  RunSample s;
+  const auto wall0 = std::chrono::steady_clock::now();
+  const double cpu0 = processCpuSeconds();
+  const double busy0 = machineBusySeconds();
+  for (int f = 0; f < row.frames; ++f) {
+    s.substeps += scene.step(CressimBench::kFrameDt).substeps;
+    progress.update(++framesDone);
+  }
+  s.cpuSeconds = processCpuSeconds() - cpu0;
+  s.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  // /proc/stat counts in clock ticks (10 ms): noise of about 0.02 s over the run
+  s.otherLoad = std::max(0.0, (machineBusySeconds() - busy0 - s.cpuSeconds) / s.wallSeconds);
+  s.stages = scene.timings();
+  row.particles = scene.particleCount();
+  row.memoryBytes = scene.memoryBytes();
+  return s;
+}
+
+/// Times one run and appends it to the row. A run during which other processes took CPU
+/// (on 2 cores, one busy neighbour stalls every OpenMP barrier) is redone after a pause;
+/// when every try was busy, the least disturbed one is kept and the row says so.
+void runOnce(Row& row, const Options& opt, mpm::io::ProgressBar& progress,
+             long long& framesDone) {
+  const long long framesBefore = framesDone;
+  RunSample best;
+  for (int attempt = 0;; ++attempt) {
+    framesDone = framesBefore;
+    const RunSample s = timeRun(row, progress, framesDone);
+    if (attempt == 0 || !(s.otherLoad >= best.otherLoad)) best = s;
+    if (!(s.otherLoad > opt.maxOtherLoad) || attempt >= opt.retries) break;
+    row.redone++;
+    std::fprintf(stderr,
+                 "\nbusy machine: other processes used %.2f cores during the %zu-particle,"
+                 " %d-thread run; redoing it in %g s (%d/%d)\n",
+                 s.otherLoad, row.particles, row.threads, opt.retryWait, attempt + 1, opt.retries);
+    std::this_thread::sleep_for(std::chrono::duration<double>(opt.retryWait));
+  }
+  row.samples.push_back(best);
+}
+
+/// Fills the derived columns of one row from its samples.
+void summarise(Row& r) {
+  std::vector<double> ms, cpuMs;
+  double wall = 0, sort = 0, p2g = 0, grid = 0, g2p = 0;
+  long long substeps = 0;
+  r.otherLoad = 0;
+  for (const RunSample& s : r.samples) {
+    r.otherLoad = std::max(r.otherLoad, s.otherLoad);
+    ms.push_back(1e3 * s.wallSeconds / r.frames);
+    cpuMs.push_back(1e3 * s.cpuSeconds / r.frames);
+    wall += s.wallSeconds;
+    sort += s.stages.sort;
+    p2g += s.stages.p2g;
+    grid += s.stages.gridUpdate;
+    g2p += s.stages.g2p;
+    substeps += s.substeps;
+  }
+  r.msPerFrame = median(ms);
+  r.msMin = *std::min_element(ms.begin(), ms.end());
+  r.msMax = *std::max_element(ms.begin(), ms.end());
+  r.cpuMsPerFrame = median(cpuMs);
+  const double substepsPerFrame = (double)substeps / ((double)r.frames * r.samples.size());
+  r.mps = (double)r.particles * substepsPerFrame / (1e-3 * r.msPerFrame) / 1e6;
+  // shares of the timed wall time, summed over repeats; "other" is what lies outside the
+  // four stages (starting the step's worker thread, the end-of-step check)
+  r.sortShare = 100.0 * sort / wall;
+  r.p2gShare = 100.0 * p2g / wall;
+  r.gridShare = 100.0 * grid / wall;
+  r.g2pShare = 100.0 * g2p / wall;
+  r.otherShare = 100.0 - r.sortShare - r.p2gShare - r.gridShare - r.g2pShare;
+  r.bytesPerParticle = (double)r.memoryBytes / (double)r.particles;
+  r.cressim = cressimMlsMpm(r.particles);
+  r.summarised = true;
+}
+
+/// Speed-up of each row over the 1-thread row of the same half-size.
+void fillSpeedups(std::vector<Row>& rows) {
+  for (Row& r : rows)
+    for (const Row& one : rows)
+      if (one.halfSize == r.halfSize && one.threads == 1) r.speedup = one.msPerFrame / r.msPerFrame;
+}
+
+std::string num(double v, int decimals) {
+  if (std::isnan(v)) return "–";
+  char text[64];
+  std::snprintf(text, sizeof text, "%.*f", decimals, v);
+  return text;
+}
+
+/// The results as a markdown table.
+std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
+  std::ostringstream t;
+  t << "| half-size [m] | particles | threads | frames | ms/frame | CPU ms/frame | M/s"
+       " | sort % | P2G % | grid % | G2P % | other % | bytes/particle | speed-up vs 1 thread"
+       " | CRESSim MLS-MPM M/s | ratio to CRESSim | other load [cores] |\n";
+  t << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const Row& r : rows) {
+    t << "| " << num(r.halfSize, 1) << " | " << r.particles << " | " << r.threads << " | "
+      << r.frames << " | " << num(r.msPerFrame, 2) << " | " << num(r.cpuMsPerFrame, 2) << " | "
+      << num(r.mps, 2) << " | " << num(r.sortShare, 1) << " | " << num(r.p2gShare, 1) << " | "
+      << num(r.gridShare, 1) << " | " << num(r.g2pShare, 1) << " | " << num(r.otherShare, 1)
+      << " | " << num(r.bytesPerParticle, 0) << " | " << num(r.speedup, 2) << " | "
+      << num(r.cressim, 2) << " | " << num(r.mps / r.cressim, 2) << " | "
+      << num(r.otherLoad, 2) << (r.otherLoad > opt.maxOtherLoad ? " (busy)" : "") << " |\n";
+  }
+  return t.str();
+}
+
+std::string csvTable(const std::vector<Row>& rows) {
+  std::ostringstream t;
+  t << "half_size_m,particles,threads,frames,repeats,ms_per_frame_median,ms_per_frame_min,"
+       "ms_per_frame_max,cpu_ms_per_frame,m_particle_substeps_per_s,sort_pct,p2g_pct,grid_pct,"
+       "g2p_pct,other_pct,memory_bytes,bytes_per_particle,speedup_vs_1_thread,"
+       "cressim_mls_mpm_m_per_s,ratio_to_cressim,other_load_cores,runs_redone\n";
+  auto field = [](double v, int decimals) { return std::isnan(v) ? std::string() : num(v, decimals); };
+  for (const Row& r : rows) {
+    t << num(r.halfSize, 3) << ',' << r.particles << ',' << r.threads << ',' << r.frames << ','
+      << r.samples.size() << ',' << num(r.msPerFrame, 3) << ',' << num(r.msMin, 3) << ','
+      << num(r.msMax, 3) << ',' << num(r.cpuMsPerFrame, 3) << ',' << num(r.mps, 4) << ','
+      << num(r.sortShare, 2) << ',' << num(r.p2gShare, 2) << ',' << num(r.gridShare, 2) << ','
+      << num(r.g2pShare, 2) << ',' << num(r.otherShare, 2) << ',' << r.memoryBytes << ','
+      << num(r.bytesPerParticle, 1) << ',' << field(r.speedup, 3) << ',' << field(r.cressim, 2)
+      << ',' << field(r.mps / r.cressim, 3) << ',' << num(r.otherLoad, 3) << ',' << r.redone
+      << '\n';
+  }
+  return t.str();
+}
+
+std::string cpuModel() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("model name", 0) != 0) continue;
+    const size_t colon = line.find(':');
+    if (colon != std::string::npos) return line.substr(line.find_first_not_of(" \t", colon + 1));
+  }
+  return "unknown";
+}
+
+std::string loadAverage() {
+  std::ifstream in("/proc/loadavg");
+  std::string one;
+  in >> one;
+  return one.empty() ? "?" : one;
+}
+
+std::string localDate() {
+  const std::time_t now = std::time(nullptr);
+  char text[64];
+  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S %Z", std::localtime(&now));
+  return text;
+}
+
+/// argv as a shell would need it typed back.
+std::string commandLine(int argc, char** argv) {
+  std::string line;
+  for (int i = 0; i < argc; ++i) {
+    std::string a = argv[i];
+    const bool plain = !a.empty() && a.find_first_not_of(
+                                         "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                         "0123456789_-+=.,/:") == std::string::npos;
+    if (!plain) {
+      std::string quoted = "'";
+      for (char c : a) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+      a = quoted + "'";
+    }
+    line += (i ? " " : "") + a;
+  }
+  return line;
+}
+
+/// Context a reader needs to compare these numbers with others.
+struct RunInfo {
+  std::string date, cpu, command, loadBefore;
+  unsigned hardwareThreads = 0;
+  bool complete = false;
+};
+
+std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
+  std::ostringstream m;
+  m << "# Throughput: CRESSim scene, CPU backend\n\n";
+  if (!info.complete) m << "**Incomplete: the run stopped or is still going; rows so far.**\n\n";
+  m << "- Date: " << info.date << "\n";
+  m << "- CPU: " << info.cpu << " (" << info.hardwareThreads << " hardware threads)\n";
+  m << "- Build: " << MPM_BENCH_BUILD_TYPE << ", compiler " << kCompiler << "\n";
+  m << "- Command: `" << info.command << "`\n";
+  m << "- Load average (1 min) before / after: " << info.loadBefore << " / " << loadAverage()
+    << "\n\n";
+  m << "Scene (BENCH_SCENES.md section 1, `mpm::scenes::CressimBench`): grid [-5.5, 5.5]^3,"
+       " cell 0.2; a box of particles at spacing 0.1, mass 10 each, centred at the origin;"
+       " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0); MLS-MPM, "
+    << CressimBench::kSubstepsPerFrame << " substeps per " << CressimBench::kFrameDt
+    << " s frame.\n\n";
+  m << "Method: each run builds a fresh scene, steps " << kWarmupFrames
+    << " untimed warm-up frames, then times `frames` calls of `Scene::step(" << CressimBench::kFrameDt
+    << ")` (" << opt.frames << " frames; " << opt.framesLarge << " above " << kLargeRunParticles
+    << " particles). Each row is " << opt.repeats
+    << " such runs (thread counts interleaved within each repeat).\n\n";
+  m << "- ms/frame: median steady-clock wall time over the repeats (min and max in the CSV).\n"
+       "- CPU ms/frame: median process CPU time, all threads.\n"
+       "- M/s: million particle-substeps per second at the median wall time.\n"
+       "- sort / P2G / grid / G2P %: the library's `StageTimings` (sort: binning particles into"
+       " grid blocks, activating and clearing blocks, the per-frame reorder; grid: grid velocity"
+       " update, gravity, walls; G2P includes the F update), summed over the repeats, as shares of"
+       " the timed wall time; other: the rest (the step's worker-thread start, end-of-step check).\n"
+       "- bytes/particle: `Scene::memoryBytes()` (particles, sort scratch and grid blocks) over"
+       " the particle count, after the run.\n"
+       "- speed-up vs 1 thread: ms/frame of the 1-thread row of the same size, from this run,"
+       " over this row's.\n"
+       "- ratio to CRESSim: this row's M/s over CRESSim-MPM's serial MLS-MPM figure at the same"
+       " particle count. CRESSim's CPU solvers are serial, so on rows with more threads the ratio"
+       " includes our threading.\n"
+       "- other load: the most CPU that other processes used during one of the row's runs"
+       " (from /proc/stat), in cores. A run with more than "
+    << opt.maxOtherLoad << " is redone after " << opt.retryWait << " s, up to " << opt.retries
+    << " times, keeping the least disturbed; \"(busy)\" marks rows where none was quiet.\n\n";
+  m << "## Results\n\n" << markdownTable(rows, opt) << "\n";
+  m << "## Peer figures: CRESSim-MPM v2.2.0, CPU solvers (serial)\n\n"
+       "From BENCH_SCENES.md section 1: measured on AMD EPYC Zen 3, 2 cores, while the machine"
+       " was partly busy (treat as ±20%). M/s = million particle-substeps per second; PB-MPM in"
+       " M particle-iterations/s. Its memory follows capacity (176 MiB at 1M particles); its"
+       " dense grid costs ~0.8 ms per substep whatever the particle count.\n\n"
+       "| CRESSim-MPM solver | 8k | 125k | 1M |\n|---|---:|---:|---:|\n";
+  m << "| MLS-MPM |";
+  for (const PeerFigure& f : kCressim) m << " " << num(f.mlsMpm, 2) << " |";
+  m << "\n| standard MPM |";
+  for (const PeerFigure& f : kCressim) m << " " << num(f.standardMpm, 2) << " |";
+  m << "\n| PB-MPM (M particle-iterations/s) |";
+  for (const PeerFigure& f : kCressim) m << " " << num(f.pbMpm, 2) << " |";
+  m << "\n";
+  return m.str();
+}
+
+void writeFile(const std::string& path, const std::string& text) {
+  std::ofstream f(path, std::ios::binary | std::ios::trunc);
+  f << text;
+  if (!f) throw mpm::Error("cannot write " + path);
+}
+
+/// Writes <out>.md and <out>.csv; called after each size so a long run leaves its rows.
+void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
+  const std::filesystem::path stem(opt.out);
+  if (stem.has_parent_path()) std::filesystem::create_directories(stem.parent_path());
+  writeFile(opt.out + ".md", markdownReport(info, opt, rows));
+  writeFile(opt.out + ".csv", csvTable(rows));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  CLI::App app{"Throughput of the CPU backend on the CRESSim scene (BENCH_SCENES.md section 1)"};
+  app.add_option("--sizes", opt.sizes, "box half-sizes [m]; 0.5,1,1.5,2.5,5 give 1k..1M particles")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--threads", opt.threads, "CPU thread counts to run each size with")
+      ->delimiter(',')
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--frames", opt.frames, "timed frames per run")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--frames-large", opt.framesLarge,
+                 "timed frames per run above " + std::to_string(kLargeRunParticles) + " particles")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--repeats", opt.repeats, "runs per row; the row reports the median")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  app.add_option("--max-other-load", opt.maxOtherLoad,
+                 "redo a run if other processes used more CPU than this during it [cores]")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--retries", opt.retries, "redos of a run on a busy machine")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--retry-wait", opt.retryWait, "pause before a redo [s]")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--out", opt.out, "path stem of the results; writes <out>.md and <out>.csv")
+      ->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  RunInfo info;
+  info.date = localDate();
+  info.cpu = cpuModel();
+  info.command = commandLine(argc, argv);
+  info.loadBefore = loadAverage();
+  info.hardwareThreads = std::thread::hardware_concurrency();
+
+  std::vector<Row> rows;
+  try {
+    for (const float half : opt.sizes) {
+      const size_t particles = particlesAt(half);
+      const int frames = particles > kLargeRunParticles ? opt.framesLarge : opt.frames;
+      const size_t first = rows.size();
+      for (const int threads : opt.threads) {
+        Row r;
+        r.halfSize = half;
+        r.particles = particles;
+        r.threads = threads;
+        r.frames = frames;
+        rows.push_back(r);
+      }
+      char label[96];
+      std::snprintf(label, sizeof label, "half-size %g (%zu particles)", half, particles);
+      mpm::io::ProgressBar progress(
+          label, (long long)opt.repeats * (long long)opt.threads.size() * (kWarmupFrames + frames));
+      long long framesDone = 0;
+      // thread counts interleaved per repeat, so a change in machine load hits them alike
+      for (int rep = 0; rep < opt.repeats; ++rep)
+        for (size_t i = first; i < rows.size(); ++i) runOnce(rows[i], opt, progress, framesDone);
+      progress.finish();
+      for (size_t i = first; i < rows.size(); ++i) summarise(rows[i]);
+      fillSpeedups(rows);
+      for (size_t i = first; i < rows.size(); ++i)
+        std::fprintf(stderr, "  %zu particles, %d thread(s): %.2f ms/frame, %.2f M/s\n",
+                     rows[i].particles, rows[i].threads, rows[i].msPerFrame, rows[i].mps);
+      writeResults(info, opt, rows);
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bench_throughput: %s\n", e.what());
+    // keep the sizes that finished
+    std::vector<Row> done;
+    for (const Row& r : rows)
+      if (r.summarised) done.push_back(r);
+    try {
+      writeResults(info, opt, done);
+    } catch (const std::exception&) {
+    }
+    return 1;
+  }
+
+  info.complete = true;
+  writeResults(info, opt, rows);
+  std::printf("%s", markdownTable(rows, opt).c_str());
+  std::fprintf(stderr, "wrote %s.md and %s.csv\n", opt.out.c_str(), opt.out.c_str());
+  return 0;
+}

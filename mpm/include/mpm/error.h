@@ -1,0 +1,40 @@
+#pragma once
+/// Errors reported to the caller. Every public entry point validates its input before it
+/// changes anything, so a rejected call leaves the scene exactly as it was.
+#include <stdexcept>
+#include <string>
+
+namespace mpm {
+
+/// Base of every error the library throws.
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// A public call got a value it cannot accept. `field()` names the offending field
+/// (e.g. "SceneSettings.dx"), `value()` is the value as text.
+class InvalidArgument : public Error {
+ public:
+  InvalidArgument(std::string field, std::string value, const std::string& why)
+      : Error(field + " = " + value + ": " + why), field_(std::move(field)), value_(std::move(value)) {}
+  const std::string& field() const { return field_; }
+  const std::string& value() const { return value_; }
+
+ private:
+  std::string field_, value_;
+};
+
+/// The requested backend cannot run here (e.g. CUDA asked for, no device present).
+class BackendUnavailable : public Error {
+ public:
+  using Error::Error;
+};
+
+/// A step produced a non-finite state or lost particles; names the object and particle.
+class SimulationDiverged : public Error {
+ public:
+  using Error::Error;
+};
+
+}  // namespace mpm

@@ -1,0 +1,104 @@
+#pragma once
+/// The Scene: owns the particles, the grid and the solver, and advances them in time.
+///
+///   mpm::SceneSettings s;  s.domain = {{-1,0,-1},{1,2,1}};  s.dx = 0.05f;
+///   mpm::Scene scene(s);
+///   mpm::ParticleObjectDesc block;  block.center = {0, 0.5f, 0};
+///   auto id = scene.addParticleObject(block);
+///   scene.advance(1.f / 60);  /* other work */  scene.fetchResults();
+#include <cstddef>
+#include <memory>
+#include <vector>
+
+#include "mpm/error.h"
+#include "mpm/settings.h"
+
+namespace mpm {
+
+/// Wall-clock seconds spent in each named stage of the step, summed since the last
+/// resetTimings(). The stage names match the code and the benchmark table.
+struct StageTimings {
+  double sort = 0;        ///< binning particles by grid block, activating grid blocks
+  double p2g = 0;         ///< particle-to-grid transfer
+  double gridUpdate = 0;  ///< grid velocity update, gravity, walls
+  double g2p = 0;         ///< grid-to-particle transfer, F update
+  long long substeps = 0; ///< substeps these times cover
+};
+
+/// What the last advance() did.
+struct StepReport {
+  int substeps = 0;        ///< substeps taken
+  float substepDt = 0;     ///< length of each [s]
+  size_t activeBlocks = 0; ///< grid blocks (4^3 nodes each) touched in the last substep
+};
+
+/// Per-object summary read back from the solver (double precision sums).
+struct ObjectSummary {
+  size_t particles = 0;
+  double mass = 0;                  ///< [kg]
+  double centerOfMass[3] = {0, 0, 0};  ///< [m]
+  double momentum[3] = {0, 0, 0};      ///< linear momentum [kg m/s]
+  double angularMomentum[3] = {0, 0, 0}; ///< about the centre of mass, incl. APIC spin [kg m^2/s]
+  double kineticEnergy = 0;         ///< [J], particle velocities only
+};
+
+class SceneImpl;
+
+/// A simulation world of MPM material. Not copyable; movable.
+class Scene {
+ public:
+  /// Validates `settings` (throws InvalidArgument naming the field) and picks the backend
+  /// (throws BackendUnavailable if CUDA is requested without a device).
+  explicit Scene(const SceneSettings& settings);
+  ~Scene();
+  Scene(Scene&&) noexcept;
+  Scene& operator=(Scene&&) noexcept;
+
+  /// Adds a body of particles. Throws InvalidArgument (and changes nothing) on bad input,
+  /// including particles that would lie outside the domain's interior.
+  ParticleObjectId addParticleObject(const ParticleObjectDesc& desc);
+  /// Removes an object; its handle becomes stale.
+  void removeParticleObject(ParticleObjectId id);
+  /// True while `id` names a live object.
+  bool isValid(ParticleObjectId id) const;
+
+  /// Starts advancing the scene by `dt` seconds (> 0) on a worker thread. The scene must
+  /// not be changed until fetchResults() returns.
+  void advance(float dt);
+  /// Waits for the step started by advance(); rethrows any error it raised (for instance
+  /// SimulationDiverged). Returns immediately if no step is running.
+  StepReport fetchResults();
+  /// advance(dt) followed by fetchResults().
+  StepReport step(float dt);
+
+  /// Simulated time since creation [s].
+  double time() const;
+  /// The backend actually in use (never Auto).
+  Backend backend() const;
+  const SceneSettings& settings() const;
+
+  /// Number of live particles in the scene / in one object.
+  size_t particleCount() const;
+  size_t particleCount(ParticleObjectId id) const;
+  /// Copies positions [m] / velocities [m/s] / deformation gradients of one object's
+  /// particles into `out` (resized). Order is stable for the object's lifetime.
+  void readPositions(ParticleObjectId id, std::vector<Vec3f>& out) const;
+  void readVelocities(ParticleObjectId id, std::vector<Vec3f>& out) const;
+  void readDeformationGradients(ParticleObjectId id, std::vector<Mat3f>& out) const;
+  /// Mass, centre of mass, momenta and kinetic energy of one object.
+  ObjectSummary summary(ParticleObjectId id) const;
+
+  /// Accumulated per-stage times, and resetting them.
+  StageTimings timings() const;
+  void resetTimings();
+  /// Bytes of memory the scene holds for particles and grid (host or device).
+  size_t memoryBytes() const;
+
+ private:
+  std::unique_ptr<SceneImpl> impl_;
+};
+
+/// True if a CUDA device is usable from this process.
+bool cudaDeviceAvailable();
+
+}  // namespace mpm

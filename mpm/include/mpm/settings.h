@@ -1,0 +1,91 @@
+#pragma once
+/// Settings structs: plain data with defaults and units, validated once when handed to a
+/// Scene (see validate.h for the rules; every violation names the field and the value).
+#include <cstdint>
+#include <limits>
+
+#include "mpm/math.h"
+
+namespace mpm {
+
+/// Which algorithm advances the particles.
+enum class SolverType { MlsMpm };
+
+/// Where the kernels run. `Auto` picks CUDA when a device is present, else the CPU.
+enum class Backend { Auto, Cpu, Cuda };
+
+/// What the domain walls do to grid velocity pointing into them.
+enum class WallMode {
+  Sticky,   ///< all velocity removed: material touching the wall stops
+  Slip,     ///< normal velocity removed, tangential kept (frictionless, never separates)
+  Separate  ///< only the inward normal velocity removed: material may leave the wall
+};
+
+/// The box that holds the grid, and how its faces act on the material.
+struct DomainSettings {
+  Vec3f lower{-1.f, -1.f, -1.f};  ///< lower corner [m]
+  Vec3f upper{1.f, 1.f, 1.f};     ///< upper corner [m]
+  bool walls = true;              ///< false: no wall conditions (material must stay inside)
+  WallMode wallMode = WallMode::Separate;
+  int wallThickness = 2;          ///< cells at each face that the wall acts on (>= 1)
+};
+
+/// How an `advance(dt)` is cut into substeps.
+struct SubstepPolicy {
+  /// Substep = cflNumber * dx / (fastest elastic wave speed + fastest particle speed).
+  float cflNumber = 0.3f;
+  /// If > 0, use exactly this many substeps per advance() and skip the CFL bound.
+  int fixedSubsteps = 0;
+};
+
+/// Everything a Scene needs at creation.
+struct SceneSettings {
+  DomainSettings domain;
+  float dx = 0.05f;                 ///< grid cell size [m]
+  Vec3f gravity{0.f, -9.81f, 0.f};  ///< [m/s^2]
+  SolverType solver = SolverType::MlsMpm;
+  SubstepPolicy substeps;
+  Backend backend = Backend::Auto;
+  int cpuThreads = 0;  ///< CPU backend worker threads; 0 = all hardware threads
+};
+
+/// Constitutive law of a particle object.
+enum class MaterialModel {
+  FixedCorotated,     ///< Stomakhin et al. 2012: 2 mu (F - R) + lambda (J - 1) J F^-T
+  NeoHookeanDecoupled ///< W = C10 (I1bar - 3) + (J - 1)^2 / D1, C10 = mu/2, D1 = 2/K (Abaqus form)
+};
+
+/// Elastic material. Lamé parameters follow from E and nu.
+struct Material {
+  MaterialModel model = MaterialModel::FixedCorotated;
+  float youngsModulus = 1e4f;  ///< E [Pa], > 0
+  float poissonRatio = 0.3f;   ///< nu, in (-1, 0.5)
+  float density = 1000.f;      ///< rho [kg/m^3], > 0
+};
+
+/// Geometry a particle object is sampled from.
+enum class PrimitiveType { Box, Sphere };
+
+/// Description of a body of material points.
+struct ParticleObjectDesc {
+  PrimitiveType primitive = PrimitiveType::Box;
+  Vec3f center{0.f, 0.f, 0.f};         ///< [m]
+  Vec3f halfExtents{0.1f, 0.1f, 0.1f};  ///< box half sizes [m] (Box)
+  float radius = 0.1f;                  ///< [m] (Sphere)
+  /// Particles per grid cell along each axis (2 gives the usual 8 per cell). Ignored when
+  /// particleSpacing > 0.
+  int particlesPerCellAxis = 2;
+  /// If > 0, lattice spacing of the particles [m] instead of dx / particlesPerCellAxis.
+  float particleSpacing = 0.f;
+  Material material;
+  Vec3f velocity{0.f, 0.f, 0.f};         ///< initial linear velocity [m/s]
+  Vec3f angularVelocity{0.f, 0.f, 0.f};  ///< initial spin about `center` [rad/s]
+};
+
+/// Handle to a particle object: stays valid or is detectably stale, never dangles.
+struct ParticleObjectId {
+  uint32_t index = std::numeric_limits<uint32_t>::max();
+  uint32_t generation = 0;
+};
+
+}  // namespace mpm

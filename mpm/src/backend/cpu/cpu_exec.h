@@ -1,0 +1,183 @@
+#pragma once
+// CPU execution backend: OpenMP loops over host memory.
+//
+// P2G without float atomics: particles are binned by the 4^3 grid block holding their
+// stencil base. A particle of block b writes only to b and its +1 neighbours, so blocks
+// whose coordinates have the same parities (8 colours) never write the same node and run
+// in parallel. Each node then receives its contributions in a fixed order whatever the
+// thread count, which makes the CPU path bit-for-bit deterministic.
+#include <omp.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <new>
+#include <vector>
+
+#include "backend/sim_backend.h"
+
+namespace mpm {
+
+struct CpuExec {
+  int threads = 1;
+
+  explicit CpuExec(int threadCount) : threads(threadCount > 0 ? threadCount : omp_get_max_threads()) {}
+
+  /// Coloured blocks own their nodes: a plain add is race-free.
+  struct Add {
+    static inline void add(float& a, float b) { a += b; }
+  };
+
+  template <class T>
+  T* allocate(size_t n) {
+    const size_t bytes = ((n * sizeof(T) + 63) / 64) * 64;
+    void* p = std::aligned_alloc(64, bytes);
+    if (!p) throw std::bad_alloc();
+    return static_cast<T*>(p);
+  }
+  void release(void* p) { std::free(p); }
+  void copyToDevice(void* dst, const void* src, size_t bytes) { if (bytes) std::memcpy(dst, src, bytes); }
+  void copyToHost(void* dst, const void* src, size_t bytes) const { if (bytes) std::memcpy(dst, src, bytes); }
+  void copyOnDevice(void* dst, const void* src, size_t bytes) { if (bytes) std::memcpy(dst, src, bytes); }
+
+  template <class F>
+  void forEach(size_t n, const F& f) {
+#pragma omp parallel for num_threads(threads) schedule(static)
+    for (long long i = 0; i < (long long)n; ++i) f((size_t)i);
+  }
+
+  /// Runs f over [0, n) and folds the StepCheck it returns into the pending check.
+  template <class F>
+  void forEachCheck(size_t n, const F& f) {
+    float maxSpeed2 = 0.f;
+    uint32_t firstBad = 0xffffffffu;
+#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : maxSpeed2) reduction(min : firstBad)
+    for (long long i = 0; i < (long long)n; ++i) {
+      const StepCheck c = f((size_t)i);
+      maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
+      firstBad = std::min(firstBad, c.firstBadParticle);
+    }
+    // the speed that matters for the next substep count is the latest one
+    check_.maxSpeed2 = maxSpeed2;
+    check_.firstBadParticle = std::min(check_.firstBadParticle, firstBad);
+  }
+  StepCheck takeCheck() {
+    const StepCheck c = check_;
+    check_.firstBadParticle = 0xffffffffu;
+    return c;
+  }
+  StepCheck check_;
+
+  /// Particles binned by grid block, and the active grid blocks they reach.
+  class Binning {
+   public:
+    Binning(CpuExec&, const GridGeometry& geo)
+        : geo_(geo),
+          blockCount_(nBlocks(geo), 0),
+          blockSlot_(nBlocks(geo), -1) {}
+
+    /// Bins the particles: `order` lists particle indices block by block (stable),
+    /// `blocks` the occupied blocks in index order with their ranges in `order`.
+    void build(const ParticleView& P, int threads) {
+      const size_t n = P.count;
+      keys_.resize(n);
+      order_.resize(n);
+#pragma omp parallel for num_threads(threads) schedule(static)
+      for (long long i = 0; i < (long long)n; ++i)
+        keys_[i] = geo_.stencilInside(P.x[i]) ? geo_.particleBlock(P.x[i]) : 0u;  // strays: skipped by P2G
+
+      // counting sort over the occupied blocks only; blockCount_ is all zero between calls
+      occupied_.clear();
+      for (size_t i = 0; i < n; ++i)
+        if (blockCount_[keys_[i]]++ == 0) occupied_.push_back(keys_[i]);
+      std::sort(occupied_.begin(), occupied_.end());
+      start_.resize(occupied_.size() + 1);
+      uint32_t running = 0;
+      for (size_t j = 0; j < occupied_.size(); ++j) {
+        start_[j] = running;
+        running += blockCount_[occupied_[j]];
+        blockCount_[occupied_[j]] = (uint32_t)j;  // reused as block -> rank until reset
+      }
+      start_[occupied_.size()] = running;
+      cursor_.assign(start_.begin(), start_.end() - 1);
+      for (size_t i = 0; i < n; ++i) order_[cursor_[blockCount_[keys_[i]]]++] = (uint32_t)i;
+      for (uint32_t b : occupied_) blockCount_[b] = 0;
+
+      activate();
+      for (auto& c : colour_) c.clear();
+      for (size_t j = 0; j < occupied_.size(); ++j) {
+        int bx, by, bz;
+        geo_.blockCoords(occupied_[j], bx, by, bz);
+        colour_[(bx & 1) | ((by & 1) << 1) | ((bz & 1) << 2)].push_back((uint32_t)j);
+      }
+    }
+
+    template <class F>
+    void scatter(const F& f, int threads) const {
+      for (const auto& blocks : colour_) {
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
+        for (long long k = 0; k < (long long)blocks.size(); ++k) {
+          const uint32_t j = blocks[k];
+          for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r]);
+        }
+      }
+    }
+
+    GridView gridView() const {
+      GridView g;
+      g.geo = geo_;
+      g.blockSlot = blockSlot_.data();
+      g.activeBlocks = active_.data();
+      g.nodes = const_cast<GridNode*>(nodes_.data());
+      g.activeCount = (uint32_t)active_.size();
+      return g;
+    }
+    const uint32_t* order() const { return order_.data(); }
+    size_t memoryBytes() const {
+      return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + keys_.capacity() * 4 +
+             order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
+             occupied_.capacity() * 8;
+    }
+
+   private:
+    static size_t nBlocks(const GridGeometry& g) {
+      return (size_t)g.blocks[0] * g.blocks[1] * g.blocks[2];
+    }
+    /// Active blocks: every occupied block and its +1 neighbours (the stencil's reach).
+    void activate() {
+      for (uint32_t b : active_) blockSlot_[b] = -1;
+      active_.clear();
+      for (uint32_t b : occupied_) {
+        int bx, by, bz;
+        geo_.blockCoords(b, bx, by, bz);
+        for (int i = 0; i < 2; ++i)
+          for (int j = 0; j < 2; ++j)
+            for (int k = 0; k < 2; ++k) {
+              if (bx + i >= geo_.blocks[0] || by + j >= geo_.blocks[1] || bz + k >= geo_.blocks[2])
+                continue;
+              const uint32_t nb = geo_.blockIndex(bx + i, by + j, bz + k);
+              if (blockSlot_[nb] >= 0) continue;
+              blockSlot_[nb] = (int32_t)active_.size();
+              active_.push_back(nb);
+            }
+      }
+      // node memory follows the active blocks; it only grows, so the step never reallocates
+      // once the scene has reached its size
+      const size_t need = active_.size() * kBlockNodes;
+      if (nodes_.size() < need) nodes_.resize(need);
+    }
+
+    GridGeometry geo_;
+    std::vector<uint32_t> blockCount_;
+    std::vector<int32_t> blockSlot_;
+    std::vector<uint32_t> keys_, order_, occupied_, start_, cursor_, active_;
+    std::vector<uint32_t> colour_[8];
+    std::vector<GridNode> nodes_;
+  };
+
+  void bin(const ParticleView& P, Binning& b) { b.build(P, threads); }
+  template <class F>
+  void scatter(const Binning& b, const F& f) { b.scatter(f, threads); }
+};
+
+}  // namespace mpm

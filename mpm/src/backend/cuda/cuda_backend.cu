@@ -1,0 +1,22 @@
+// Instantiates the substep for the CUDA backend.
+#include "backend/cuda/cuda_exec.cuh"
+#include "backend/particle_grid_system.h"
+
+namespace mpm {
+
+bool cudaDeviceAvailable() {
+  int count = 0;
+  // no driver or no device both come back as an error code, never a crash
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    cudaGetLastError();  // clear the sticky error state
+    return false;
+  }
+  return count > 0;
+}
+
+std::unique_ptr<SimBackend> makeCudaBackend(const GridGeometry& geo) {
+  if (!cudaDeviceAvailable()) throw BackendUnavailable("no usable CUDA device in this process");
+  return std::make_unique<ParticleGridSystem<CudaExec>>(geo);
+}
+
+}  // namespace mpm

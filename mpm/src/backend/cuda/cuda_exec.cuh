@@ -1,0 +1,259 @@
+#pragma once
+// CUDA execution backend: device memory, one launch helper, atomics for P2G, and
+// binning with CCCL (thrust) sorts. No GPU exists on the development or CI machines, so
+// everything here is compiled and linked there but run only where a device is present;
+// the kernel bodies it launches are the same functions the CPU tests exercise.
+#include <cuda_runtime.h>
+#include <thrust/execution_policy.h>
+#include <thrust/sequence.h>
+#include <thrust/sort.h>
+#include <thrust/unique.h>
+
+#include <string>
+
+#include "backend/sim_backend.h"
+
+namespace mpm {
+
+inline void cudaCheck(cudaError_t e, const char* what) {
+  if (e != cudaSuccess)
+    throw Error(std::string("CUDA backend: ") + what + " failed: " + cudaGetErrorString(e));
+}
+
+template <class F>
+__global__ void forEachKernel(size_t n, F f) {
+  const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+
+/// Folds each element's StepCheck into one device-side check with atomics.
+template <class F>
+__global__ void forEachCheckKernel(size_t n, F f, unsigned int* maxSpeed2Bits, uint32_t* firstBad) {
+  const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= n) return;
+  const StepCheck c = f(i);
+  // non-negative floats order like their bit patterns
+  atomicMax(maxSpeed2Bits, __float_as_uint(c.maxSpeed2));
+  if (c.firstBadParticle != 0xffffffffu) atomicMin(firstBad, c.firstBadParticle);
+}
+
+template <class F>
+__global__ void scatterKernel(size_t n, const uint32_t* order, F f) {
+  const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < n) f(order[i]);
+}
+
+struct CudaExec {
+  static constexpr int kThreads = 256;
+
+  /// GPU threads of different particles meet on the same node: accumulate atomically.
+  struct Add {
+    MPM_HD static void add(float& a, float b) {
+#ifdef __CUDA_ARCH__
+      atomicAdd(&a, b);
+#else
+      a += b;
+#endif
+    }
+  };
+
+  CudaExec() {
+    cudaCheck(cudaMalloc(&checkBuffer_, 2 * sizeof(uint32_t)), "cudaMalloc(check)");
+    resetCheck();
+  }
+  ~CudaExec() { cudaFree(checkBuffer_); }
+  CudaExec(const CudaExec&) = delete;
+  CudaExec& operator=(const CudaExec&) = delete;
+
+  template <class T>
+  T* allocate(size_t n) {
+    void* p = nullptr;
+    cudaCheck(cudaMalloc(&p, n * sizeof(T)), "cudaMalloc");
+    return static_cast<T*>(p);
+  }
+  void release(void* p) { cudaFree(p); }
+  void copyToDevice(void* dst, const void* src, size_t bytes) {
+    if (bytes) cudaCheck(cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "copy to device");
+  }
+  void copyToHost(void* dst, const void* src, size_t bytes) const {
+    if (bytes) cudaCheck(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "copy to host");
+  }
+  void copyOnDevice(void* dst, const void* src, size_t bytes) {
+    if (bytes) cudaCheck(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice), "device copy");
+  }
+
+  static unsigned int blocksFor(size_t n) { return (unsigned int)((n + kThreads - 1) / kThreads); }
+
+  /// The one launch helper: rounds the grid, skips empty launches, checks the launch.
+  template <class F>
+  void forEach(size_t n, const F& f) {
+    if (n == 0) return;
+    forEachKernel<<<blocksFor(n), kThreads>>>(n, f);
+    cudaCheck(cudaGetLastError(), "kernel launch");
+  }
+
+  template <class F>
+  void forEachCheck(size_t n, const F& f) {
+    if (n == 0) return;
+    // the speed that matters for the next substep count is the latest one
+    cudaCheck(cudaMemsetAsync(checkBuffer_, 0, sizeof(uint32_t)), "reset speed");
+    forEachCheckKernel<<<blocksFor(n), kThreads>>>(n, f, checkBuffer_, checkBuffer_ + 1);
+    cudaCheck(cudaGetLastError(), "kernel launch");
+  }
+
+  StepCheck takeCheck() {
+    uint32_t h[2];
+    copyToHost(h, checkBuffer_, sizeof h);
+    resetCheck();
+    StepCheck c;
+    float speed2;
+    static_assert(sizeof(speed2) == sizeof(h[0]), "float is 32 bits");
+    memcpy(&speed2, &h[0], sizeof speed2);
+    c.maxSpeed2 = speed2;
+    c.firstBadParticle = h[1];
+    return c;
+  }
+
+  void resetCheck() {
+    const uint32_t init[2] = {0u, 0xffffffffu};
+    copyToDevice(checkBuffer_, init, sizeof init);
+  }
+
+  /// Particles sorted by grid block (order), and the active blocks they reach.
+  class Binning;
+
+  void bin(const ParticleView& P, Binning& b);
+  template <class F>
+  void scatter(const Binning& b, const F& f);
+
+ private:
+  uint32_t* checkBuffer_ = nullptr;
+};
+
+namespace cuda_kernels {
+
+struct ParticleKeys {
+  ParticleView P;
+  GridGeometry geo;
+  uint32_t* keys;
+  MPM_HD void operator()(size_t i) const {
+    keys[i] = geo.stencilInside(P.x[i]) ? geo.particleBlock(P.x[i]) : 0u;
+  }
+};
+
+/// The eight blocks an occupied block's particles reach (sentinel outside the grid).
+struct StencilBlocks {
+  GridGeometry geo;
+  const uint32_t* occupied;
+  uint32_t* candidates;
+  MPM_HD void operator()(size_t j) const {
+    int bx, by, bz;
+    geo.blockCoords(occupied[j], bx, by, bz);
+    for (int c = 0; c < 8; ++c) {
+      const int x = bx + (c & 1), y = by + ((c >> 1) & 1), z = bz + (c >> 2);
+      const bool inside = x < geo.blocks[0] && y < geo.blocks[1] && z < geo.blocks[2];
+      candidates[8 * j + c] = inside ? geo.blockIndex(x, y, z) : 0xffffffffu;
+    }
+  }
+};
+
+struct SetSlot {
+  int32_t* blockSlot;
+  const uint32_t* active;
+  int clear;
+  MPM_HD void operator()(size_t k) const { blockSlot[active[k]] = clear ? -1 : (int32_t)k; }
+};
+
+struct FillInt {
+  int32_t* out;
+  int32_t value;
+  MPM_HD void operator()(size_t i) const { out[i] = value; }
+};
+
+}  // namespace cuda_kernels
+
+class CudaExec::Binning {
+ public:
+  Binning(CudaExec& exec, const GridGeometry& geo) : exec_(exec), geo_(geo) {
+    blocks_ = (size_t)geo.blocks[0] * geo.blocks[1] * geo.blocks[2];
+    blockSlot_ = exec_.allocate<int32_t>(blocks_);
+    exec_.forEach(blocks_, cuda_kernels::FillInt{blockSlot_, -1});
+  }
+  ~Binning() {
+    for (void* p : {(void*)blockSlot_, (void*)keys_, (void*)order_, (void*)candidates_,
+                    (void*)active_, (void*)nodes_})
+      if (p) exec_.release(p);
+  }
+
+  void build(const ParticleView& P) {
+    const size_t n = P.count;
+    grow(keys_, keysCap_, n);
+    grow(order_, orderCap_, n);
+    exec_.forEach(n, cuda_kernels::ParticleKeys{P, geo_, keys_});
+    thrust::sequence(thrust::device, order_, order_ + n);
+    thrust::stable_sort_by_key(thrust::device, keys_, keys_ + n, order_);
+    // occupied blocks, in place at the front of keys_
+    const size_t occupied = thrust::unique(thrust::device, keys_, keys_ + n) - keys_;
+    grow(candidates_, candidatesCap_, 8 * occupied);
+    exec_.forEach(occupied, cuda_kernels::StencilBlocks{geo_, keys_, candidates_});
+    thrust::sort(thrust::device, candidates_, candidates_ + 8 * occupied);
+    size_t active = thrust::unique(thrust::device, candidates_, candidates_ + 8 * occupied) - candidates_;
+    uint32_t last = 0;
+    if (active) exec_.copyToHost(&last, candidates_ + active - 1, sizeof last);
+    if (active && last == 0xffffffffu) --active;  // drop the sentinel
+
+    exec_.forEach(activeCount_, cuda_kernels::SetSlot{blockSlot_, active_, 1});
+    grow(active_, activeCap_, active);
+    exec_.copyOnDevice(active_, candidates_, active * sizeof(uint32_t));
+    activeCount_ = active;
+    exec_.forEach(activeCount_, cuda_kernels::SetSlot{blockSlot_, active_, 0});
+    grow(nodes_, nodesCap_, activeCount_ * kBlockNodes);
+    count_ = n;
+  }
+
+  GridView gridView() const {
+    GridView g;
+    g.geo = geo_;
+    g.blockSlot = blockSlot_;
+    g.activeBlocks = active_;
+    g.nodes = nodes_;
+    g.activeCount = (uint32_t)activeCount_;
+    return g;
+  }
+  const uint32_t* order() const { return order_; }
+  size_t count() const { return count_; }
+  size_t memoryBytes() const {
+    return blocks_ * 4 + (keysCap_ + orderCap_ + candidatesCap_ + activeCap_) * 4 +
+           nodesCap_ * sizeof(GridNode);
+  }
+
+ private:
+  /// Grows a device array to at least n elements (contents not kept); never shrinks,
+  /// so a scene at steady size allocates nothing inside the step.
+  template <class T>
+  void grow(T*& p, size_t& cap, size_t n) {
+    if (n <= cap) return;
+    if (p) exec_.release(p);
+    p = exec_.allocate<T>(n);
+    cap = n;
+  }
+
+  CudaExec& exec_;
+  GridGeometry geo_;
+  size_t blocks_ = 0, count_ = 0, activeCount_ = 0;
+  int32_t* blockSlot_ = nullptr;
+  uint32_t *keys_ = nullptr, *order_ = nullptr, *candidates_ = nullptr, *active_ = nullptr;
+  size_t keysCap_ = 0, orderCap_ = 0, candidatesCap_ = 0, activeCap_ = 0, nodesCap_ = 0;
+  GridNode* nodes_ = nullptr;
+};
+
+inline void CudaExec::bin(const ParticleView& P, Binning& b) { b.build(P); }
+
+template <class F>
+void CudaExec::scatter(const Binning& b, const F& f) {
+  if (b.count() == 0) return;
+  scatterKernel<<<blocksFor(b.count()), kThreads>>>(b.count(), b.order(), f);
+  cudaCheck(cudaGetLastError(), "kernel launch");
+}
+
+}  // namespace mpm

@@ -1,0 +1,12 @@
+// Built instead of cuda_backend.cu when nvcc is absent: CUDA is then never available.
+#include "backend/sim_backend.h"
+
+namespace mpm {
+
+bool cudaDeviceAvailable() { return false; }
+
+std::unique_ptr<SimBackend> makeCudaBackend(const GridGeometry&) {
+  throw BackendUnavailable("the library was built without the CUDA backend (nvcc not found)");
+}
+
+}  // namespace mpm

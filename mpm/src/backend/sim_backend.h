@@ -1,0 +1,68 @@
+#pragma once
+// The interface between the Scene (host bookkeeping, validation, substep policy) and a
+// backend that owns particle and grid memory and runs the kernels. One implementation,
+// ParticleGridSystem<Exec>, is compiled once per backend (CPU in a .cpp, CUDA in a .cu).
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/constitutive.h"
+#include "core/particle_state.h"
+#include "grid/block_grid.h"
+#include "grid/grid_update.h"
+#include "mpm/scene.h"
+
+namespace mpm {
+
+/// Particle arrays on the host, used to add, read back and remove particles.
+struct HostParticles {
+#define MPM_DECLARE_HOST_FIELD(type, name) std::vector<type> name;
+  MPM_PARTICLE_FIELDS(MPM_DECLARE_HOST_FIELD)
+#undef MPM_DECLARE_HOST_FIELD
+  size_t size() const { return x.size(); }
+};
+
+/// Constant inputs of one substep.
+struct SubstepParams {
+  float dt = 0;
+  Vec3f gravity;
+  WallParams walls;
+};
+
+/// Result of the per-particle checks that run inside G2P.
+struct StepCheck {
+  float maxSpeed2 = 0;                  ///< largest |v|^2 after the substep [m^2/s^2]
+  uint32_t firstBadParticle = 0xffffffffu; ///< lowest index of a non-finite or escaped particle
+};
+
+class SimBackend {
+ public:
+  virtual ~SimBackend() = default;
+  /// Appends particles (all fields filled) at the end of the state.
+  virtual void append(const HostParticles& particles) = 0;
+  /// Keeps only the particles whose object slot has keep[slot] != 0.
+  virtual void removeObjects(const std::vector<uint8_t>& keep) = 0;
+  /// Material table indexed by object slot.
+  virtual void setMaterials(const std::vector<MaterialParams>& materials) = 0;
+  /// Orders particle memory by grid block so the transfers walk memory in order.
+  virtual void sortParticles() = 0;
+  /// One MLS-MPM substep. Particles whose state is not finite or whose stencil left the
+  /// grid are skipped by the transfers (never written out of bounds) and recorded.
+  virtual void substep(const SubstepParams& params) = 0;
+  /// The checks of the substeps since the last call (read once per advance, so the GPU
+  /// is not waited on inside the substep loop), then cleared.
+  virtual StepCheck takeCheck() = 0;
+  /// Copies the whole particle state to the host.
+  virtual void download(HostParticles& out) const = 0;
+  virtual size_t particleCount() const = 0;
+  virtual size_t activeBlocks() const = 0;
+  virtual size_t memoryBytes() const = 0;
+  StageTimings timings;
+};
+
+std::unique_ptr<SimBackend> makeCpuBackend(const GridGeometry& geo, int threads);
+/// Throws BackendUnavailable when built without CUDA or no device is present.
+std::unique_ptr<SimBackend> makeCudaBackend(const GridGeometry& geo);
+
+}  // namespace mpm

@@ -1,0 +1,91 @@
+#include "core/validate.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+namespace mpm::validate {
+
+std::string show(float v) {
+  // the shortest text that reads back as the same float: 0.45f prints as "0.45"
+  for (int digits = 6; digits <= 9; ++digits) {
+    std::ostringstream s;
+    s.precision(digits);
+    s << v;
+    if (std::strtof(s.str().c_str(), nullptr) == v || !std::isfinite(v)) return s.str();
+  }
+  return std::to_string(v);
+}
+
+std::string show(Vec3f v) { return "(" + show(v.x) + ", " + show(v.y) + ", " + show(v.z) + ")"; }
+
+void finite(const std::string& field, float v) {
+  if (!std::isfinite(v)) throw InvalidArgument(field, show(v), "must be a finite number");
+}
+void finite(const std::string& field, Vec3f v) {
+  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+    throw InvalidArgument(field, show(v), "every component must be a finite number");
+}
+void positive(const std::string& field, float v) {
+  finite(field, v);
+  if (!(v > 0.f)) throw InvalidArgument(field, show(v), "must be > 0");
+}
+void positive(const std::string& field, Vec3f v) {
+  finite(field, v);
+  if (!(v.x > 0.f && v.y > 0.f && v.z > 0.f))
+    throw InvalidArgument(field, show(v), "every component must be > 0");
+}
+void atLeast(const std::string& field, int v, int lo) {
+  if (v < lo) throw InvalidArgument(field, std::to_string(v), "must be >= " + std::to_string(lo));
+}
+
+void sceneSettings(const SceneSettings& s) {
+  finite("SceneSettings.domain.lower", s.domain.lower);
+  finite("SceneSettings.domain.upper", s.domain.upper);
+  positive("SceneSettings.dx", s.dx);
+  const Vec3f size = s.domain.upper - s.domain.lower;
+  if (!(size.x > 0.f && size.y > 0.f && size.z > 0.f))
+    throw InvalidArgument("SceneSettings.domain.upper", show(s.domain.upper),
+                          "must exceed domain.lower " + show(s.domain.lower) + " on every axis");
+  for (int a = 0; a < 3; ++a) {
+    const double cells = std::ceil(size[a] / s.dx);
+    if (cells < 4)
+      throw InvalidArgument("SceneSettings.dx", show(s.dx),
+                            "leaves fewer than 4 cells across the domain");
+    if (cells > 16384)
+      throw InvalidArgument("SceneSettings.dx", show(s.dx),
+                            "gives more than 16384 cells along one axis of the domain");
+  }
+  atLeast("SceneSettings.domain.wallThickness", s.domain.wallThickness, 1);
+  finite("SceneSettings.gravity", s.gravity);
+  positive("SceneSettings.substeps.cflNumber", s.substeps.cflNumber);
+  if (s.substeps.cflNumber > 1.f)
+    throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
+                          "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");
+  atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
+  atLeast("SceneSettings.cpuThreads", s.cpuThreads, 0);
+}
+
+void material(const std::string& prefix, const Material& m) {
+  positive(prefix + ".youngsModulus", m.youngsModulus);
+  finite(prefix + ".poissonRatio", m.poissonRatio);
+  if (!(m.poissonRatio > -1.f && m.poissonRatio < 0.5f))
+    throw InvalidArgument(prefix + ".poissonRatio", show(m.poissonRatio), "must lie in (-1, 0.5)");
+  positive(prefix + ".density", m.density);
+}
+
+void particleObjectDesc(const ParticleObjectDesc& d) {
+  finite("ParticleObjectDesc.center", d.center);
+  if (d.primitive == PrimitiveType::Box) positive("ParticleObjectDesc.halfExtents", d.halfExtents);
+  if (d.primitive == PrimitiveType::Sphere) positive("ParticleObjectDesc.radius", d.radius);
+  atLeast("ParticleObjectDesc.particlesPerCellAxis", d.particlesPerCellAxis, 1);
+  finite("ParticleObjectDesc.particleSpacing", d.particleSpacing);
+  if (d.particleSpacing < 0.f)
+    throw InvalidArgument("ParticleObjectDesc.particleSpacing", show(d.particleSpacing),
+                          "must be > 0, or 0 to use dx / particlesPerCellAxis");
+  finite("ParticleObjectDesc.velocity", d.velocity);
+  finite("ParticleObjectDesc.angularVelocity", d.angularVelocity);
+  material("ParticleObjectDesc.material", d.material);
+}
+
+}  // namespace mpm::validate

@@ -1,0 +1,92 @@
+#pragma once
+// Block-sparse grid. The domain's nodes are grouped in blocks of 4x4x4; a dense table of
+// one int per block (1/64 of the node count) maps a block to its slot in the pool of
+// active blocks, or -1. Only blocks within reach of a particle are active, so node
+// memory and per-substep work follow the particles, not the domain.
+#include <cstdint>
+
+#include "mpm/math.h"
+
+namespace mpm {
+
+constexpr int kBlockBits = 2;
+constexpr int kBlockSize = 1 << kBlockBits;  // nodes per block edge
+constexpr int kBlockNodes = kBlockSize * kBlockSize * kBlockSize;
+constexpr int kBlockMask = kBlockSize - 1;
+
+/// One grid node: mass and momentum during P2G, mass and velocity after the grid update.
+struct GridNode {
+  float mass;
+  Vec3f mv;  ///< momentum [kg m/s]; velocity [m/s] after gridUpdate
+};
+
+/// Geometry of the grid, shared by every kernel.
+struct GridGeometry {
+  Vec3f lower;        ///< world position of node (0,0,0) [m]
+  float dx = 0;       ///< cell size [m]
+  float invDx = 0;
+  int cells[3] = {0, 0, 0};   ///< cells per axis; nodes are 0..cells
+  int blocks[3] = {0, 0, 0};  ///< blocks per axis
+
+  MPM_HD uint32_t blockIndex(int bx, int by, int bz) const {
+    return (uint32_t)((bx * blocks[1] + by) * blocks[2] + bz);
+  }
+  MPM_HD void blockCoords(uint32_t b, int& bx, int& by, int& bz) const {
+    bz = (int)(b % (uint32_t)blocks[2]);
+    by = (int)((b / (uint32_t)blocks[2]) % (uint32_t)blocks[1]);
+    bx = (int)(b / ((uint32_t)blocks[2] * (uint32_t)blocks[1]));
+  }
+  /// Lowest node of the particle's 3x3x3 quadratic B-spline stencil.
+  MPM_HD void stencilBase(Vec3f x, int base[3], Vec3f& fx) const {
+    for (int a = 0; a < 3; ++a) {
+      const float g = (x[a] - lower[a]) * invDx;
+      base[a] = (int)floorf(g - 0.5f);
+      fx[a] = g - (float)base[a];
+    }
+  }
+  /// Block that owns a particle for binning: the block holding its stencil base.
+  MPM_HD uint32_t particleBlock(Vec3f x) const {
+    int base[3];
+    Vec3f fx;
+    stencilBase(x, base, fx);
+    return blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+  }
+  /// True if the particle's whole stencil lies on grid nodes.
+  MPM_HD bool stencilInside(Vec3f x) const {
+    int base[3];
+    Vec3f fx;
+    stencilBase(x, base, fx);
+    for (int a = 0; a < 3; ++a)
+      if (!(base[a] >= 0 && base[a] + 2 <= cells[a])) return false;
+    return true;
+  }
+};
+
+/// Non-owning view of the active grid, passed to kernels by value.
+struct GridView {
+  GridGeometry geo;
+  const int32_t* blockSlot = nullptr;  ///< dense table: block -> active slot, or -1
+  const uint32_t* activeBlocks = nullptr;  ///< slot -> block index
+  GridNode* nodes = nullptr;               ///< kBlockNodes per active slot
+  uint32_t activeCount = 0;
+
+  /// Node of global coordinates (i, j, k); its block must be active.
+  MPM_HD GridNode& node(int i, int j, int k) const {
+    const int32_t slot =
+        blockSlot[geo.blockIndex(i >> kBlockBits, j >> kBlockBits, k >> kBlockBits)];
+    const int local = ((i & kBlockMask) << (2 * kBlockBits)) | ((j & kBlockMask) << kBlockBits) |
+                      (k & kBlockMask);
+    return nodes[(size_t)slot * kBlockNodes + local];
+  }
+};
+
+/// Quadratic B-spline weights for the three stencil nodes along one axis, given the
+/// particle's offset fx in [0.5, 1.5) from the stencil base.
+MPM_HD void quadraticWeights(float fx, float w[3]) {
+  const float a = 1.5f - fx, b = fx - 1.f, c = fx - 0.5f;
+  w[0] = 0.5f * a * a;
+  w[1] = 0.75f - b * b;
+  w[2] = 0.5f * c * c;
+}
+
+}  // namespace mpm

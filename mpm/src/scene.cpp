@@ -1,0 +1,348 @@
+// Scene: host-side bookkeeping (objects, handles, materials), input validation, the
+// substep policy and the asynchronous step. The particle and grid work is the backend's.
+#include "mpm/scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <future>
+#include <sstream>
+
+#include "backend/sim_backend.h"
+#include "core/validate.h"
+
+namespace mpm {
+
+namespace {
+
+MaterialParams materialParams(const Material& m) {
+  MaterialParams p;
+  p.model = m.model == MaterialModel::NeoHookeanDecoupled ? kNeoHookeanDecoupled : kFixedCorotated;
+  const float E = m.youngsModulus, nu = m.poissonRatio;
+  p.mu = E / (2.f * (1.f + nu));
+  p.lambda = E * nu / ((1.f + nu) * (1.f - 2.f * nu));
+  p.bulk = p.lambda + 2.f * p.mu / 3.f;
+  p.density = m.density;
+  return p;
+}
+
+GridGeometry gridGeometry(const SceneSettings& s) {
+  GridGeometry g;
+  g.lower = s.domain.lower;
+  g.dx = s.dx;
+  g.invDx = 1.f / s.dx;
+  for (int a = 0; a < 3; ++a) {
+    // the grid covers the domain with whole cells (it may reach slightly past `upper`)
+    g.cells[a] = (int)std::ceil((s.domain.upper[a] - s.domain.lower[a]) / s.dx - 1e-4f);
+    g.blocks[a] = (g.cells[a] + 1 + kBlockSize - 1) / kBlockSize;
+  }
+  return g;
+}
+
+Mat3f skew(Vec3f w) {
+  Mat3f m;
+  m.m[0][1] = -w.z; m.m[0][2] = w.y;
+  m.m[1][0] = w.z;  m.m[1][2] = -w.x;
+  m.m[2][0] = -w.y; m.m[2][1] = w.x;
+  return m;
+}
+
+}  // namespace
+
+struct ObjectRecord {
+  uint32_t generation = 0;
+  bool alive = false;
+  size_t particles = 0;
+  MaterialParams material;
+  float maxInitialSpeed = 0;
+};
+
+class SceneImpl {
+ public:
+  explicit SceneImpl(const SceneSettings& s) : settings(s) {
+    validate::sceneSettings(s);
+    geo = gridGeometry(s);
+    const bool haveCuda = cudaDeviceAvailable();
+    if (s.backend == Backend::Cuda && !haveCuda)
+      throw BackendUnavailable(
+          "SceneSettings.backend = Cuda: no usable CUDA device in this process"
+#ifndef MPM_WITH_CUDA
+          " (the library was built without the CUDA backend)"
+#endif
+          "; use Backend::Cpu or Backend::Auto");
+    if (s.backend == Backend::Cuda || (s.backend == Backend::Auto && haveCuda)) {
+      backend = makeCudaBackend(geo);
+      resolved = Backend::Cuda;
+    } else {
+      backend = makeCpuBackend(geo, s.cpuThreads);
+      resolved = Backend::Cpu;
+    }
+  }
+
+  ~SceneImpl() {
+    if (pending.valid()) pending.wait();
+  }
+
+  void requireIdle(const char* call) const {
+    if (pending.valid())
+      throw Error(std::string(call) + ": a step is running; call fetchResults() first");
+  }
+
+  const ObjectRecord& record(ParticleObjectId id, const char* call) const {
+    if (!isValid(id)) {
+      std::ostringstream s;
+      s << id.index << "/" << id.generation;
+      throw InvalidArgument(std::string(call) + ": ParticleObjectId", s.str(),
+                            "does not name a live particle object");
+    }
+    return objects[id.index];
+  }
+
+  bool isValid(ParticleObjectId id) const {
+    return id.index < objects.size() && objects[id.index].alive &&
+           objects[id.index].generation == id.generation;
+  }
+
+  ParticleObjectId add(const ParticleObjectDesc& d) {
+    requireIdle("addParticleObject");
+    validate::particleObjectDesc(d);
+    const float h = d.particleSpacing > 0.f ? d.particleSpacing : settings.dx / d.particlesPerCellAxis;
+    if (h > settings.dx)
+      throw InvalidArgument("ParticleObjectDesc.particleSpacing", validate::show(h),
+                            "must not exceed the cell size dx = " + validate::show(settings.dx) +
+                                " (fewer than one particle per cell leaves holes in the grid)");
+    const Vec3f half = d.primitive == PrimitiveType::Box
+                           ? d.halfExtents
+                           : Vec3f{d.radius, d.radius, d.radius};
+    int n[3];
+    for (int a = 0; a < 3; ++a) {
+      n[a] = (int)std::lround(2.f * half[a] / h);
+      if (n[a] < 1)
+        throw InvalidArgument(d.primitive == PrimitiveType::Box ? "ParticleObjectDesc.halfExtents"
+                                                                : "ParticleObjectDesc.radius",
+                              validate::show(half[a]), "is smaller than half the particle spacing " +
+                                                           validate::show(h));
+    }
+    // the slot the new object will take (not claimed until every check has passed)
+    uint32_t slot = 0;
+    while (slot < objects.size() && objects[slot].alive) ++slot;
+
+    HostParticles add;
+    const MaterialParams mat = materialParams(d.material);
+    const float vol = h * h * h;
+    const float lowWall = settings.domain.walls ? (float)settings.domain.wallThickness : 0.f;
+    float maxSpeed = 0.f;
+    for (int i = 0; i < n[0]; ++i)
+      for (int j = 0; j < n[1]; ++j)
+        for (int k = 0; k < n[2]; ++k) {
+          const Vec3f r{(i + 0.5f) * h - 0.5f * n[0] * h, (j + 0.5f) * h - 0.5f * n[1] * h,
+                        (k + 0.5f) * h - 0.5f * n[2] * h};
+          if (d.primitive == PrimitiveType::Sphere && dot(r, r) > d.radius * d.radius) continue;
+          const Vec3f x = d.center + r;
+          bool inside = geo.stencilInside(x);
+          for (int a = 0; a < 3 && inside; ++a) {
+            const float g = (x[a] - geo.lower[a]) * geo.invDx;
+            inside = g >= lowWall && g <= geo.cells[a] - lowWall;
+          }
+          if (!inside)
+            throw InvalidArgument(
+                "ParticleObjectDesc.center", validate::show(d.center),
+                "puts a particle at " + validate::show(x) +
+                    " outside the domain interior (domain minus walls and the B-spline stencil)");
+          const Vec3f v = d.velocity + cross(d.angularVelocity, r);
+          maxSpeed = std::max(maxSpeed, norm(v));
+          add.x.push_back(x);
+          add.v.push_back(v);
+          add.C.push_back(skew(d.angularVelocity));  // velocity gradient of the rigid motion
+          add.F.push_back(Mat3f::identity());
+          add.mass.push_back(d.material.density * vol);
+          add.volume0.push_back(vol);
+          add.object.push_back(slot);
+          add.local.push_back((uint32_t)add.x.size() - 1);
+        }
+    if (add.size() == 0)
+      throw InvalidArgument("ParticleObjectDesc.radius", validate::show(d.radius),
+                            "holds no particle at spacing " + validate::show(h));
+
+    if (slot == objects.size()) objects.emplace_back();
+    ObjectRecord& rec = objects[slot];
+    rec.alive = true;
+    rec.particles = add.size();
+    rec.material = mat;
+    rec.maxInitialSpeed = maxSpeed;
+    maxParticleSpeed = std::max(maxParticleSpeed, maxSpeed);
+    uploadMaterials();
+    backend->append(add);
+    return {slot, rec.generation};
+  }
+
+  void remove(ParticleObjectId id) {
+    requireIdle("removeParticleObject");
+    record(id, "removeParticleObject");
+    std::vector<uint8_t> keep(objects.size());
+    for (size_t i = 0; i < objects.size(); ++i) keep[i] = objects[i].alive && i != id.index;
+    backend->removeObjects(keep);
+    objects[id.index].alive = false;
+    objects[id.index].generation++;
+    objects[id.index].particles = 0;
+  }
+
+  void uploadMaterials() {
+    std::vector<MaterialParams> table(objects.size());
+    for (size_t i = 0; i < objects.size(); ++i) table[i] = objects[i].material;
+    backend->setMaterials(table);
+  }
+
+  /// Substep count for an advance of dt: the CFL bound on the fastest elastic wave plus
+  /// the fastest particle, unless the user fixed the count.
+  int substepCount(float dt) const {
+    if (settings.substeps.fixedSubsteps > 0) return settings.substeps.fixedSubsteps;
+    float wave = 0.f;
+    for (const auto& o : objects)
+      if (o.alive) wave = std::max(wave, pWaveSpeed(o.material));
+    const float speed = wave + maxParticleSpeed;
+    if (speed <= 0.f) return 1;
+    const float dtMax = settings.substeps.cflNumber * settings.dx / speed;
+    return std::max(1, (int)std::ceil(dt / dtMax - 1e-5f));
+  }
+
+  StepReport run(float dt, int substeps) {
+    StepReport report;
+    report.substeps = substeps;
+    report.substepDt = dt / substeps;
+    SubstepParams p;
+    p.dt = report.substepDt;
+    p.gravity = settings.gravity;
+    p.walls.enabled = settings.domain.walls ? 1 : 0;
+    p.walls.mode = static_cast<int>(settings.domain.wallMode);
+    p.walls.thickness = settings.domain.wallThickness;
+    backend->sortParticles();
+    for (int s = 0; s < substeps; ++s) backend->substep(p);
+    time += dt;
+    const StepCheck c = backend->takeCheck();
+    maxParticleSpeed = std::sqrt(c.maxSpeed2);
+    if (c.firstBadParticle != 0xffffffffu) reportDivergence(c.firstBadParticle);
+    report.activeBlocks = backend->activeBlocks();
+    return report;
+  }
+
+  [[noreturn]] void reportDivergence(uint32_t particle) {
+    HostParticles all;
+    backend->download(all);
+    std::ostringstream s;
+    s << "particle " << all.local[particle] << " of object " << all.object[particle]
+      << " is at " << validate::show(all.x[particle]) << " with velocity "
+      << validate::show(all.v[particle]) << " at t = " << time
+      << " s: its state is not finite or it left the grid";
+    throw SimulationDiverged(s.str());
+  }
+
+  void advance(float dt) {
+    requireIdle("advance");
+    validate::positive("Scene::advance dt", dt);
+    const int n = substepCount(dt);
+    pending = std::async(std::launch::async, [this, dt, n] { return run(dt, n); });
+  }
+
+  StepReport fetch() {
+    if (!pending.valid()) return {};
+    auto f = std::move(pending);
+    return f.get();
+  }
+
+  SceneSettings settings;
+  GridGeometry geo;
+  Backend resolved = Backend::Cpu;
+  std::unique_ptr<SimBackend> backend;
+  std::vector<ObjectRecord> objects;
+  float maxParticleSpeed = 0.f;
+  double time = 0.0;
+  std::future<StepReport> pending;
+};
+
+Scene::Scene(const SceneSettings& settings) : impl_(std::make_unique<SceneImpl>(settings)) {}
+Scene::~Scene() = default;
+Scene::Scene(Scene&&) noexcept = default;
+Scene& Scene::operator=(Scene&&) noexcept = default;
+
+ParticleObjectId Scene::addParticleObject(const ParticleObjectDesc& d) { return impl_->add(d); }
+void Scene::removeParticleObject(ParticleObjectId id) { impl_->remove(id); }
+bool Scene::isValid(ParticleObjectId id) const { return impl_->isValid(id); }
+void Scene::advance(float dt) { impl_->advance(dt); }
+StepReport Scene::fetchResults() { return impl_->fetch(); }
+StepReport Scene::step(float dt) {
+  advance(dt);
+  return fetchResults();
+}
+double Scene::time() const { return impl_->time; }
+Backend Scene::backend() const { return impl_->resolved; }
+const SceneSettings& Scene::settings() const { return impl_->settings; }
+size_t Scene::particleCount() const { return impl_->backend->particleCount(); }
+size_t Scene::particleCount(ParticleObjectId id) const {
+  return impl_->record(id, "particleCount").particles;
+}
+
+namespace {
+/// Gathers one object's particles in their stable per-object order.
+template <class T, class Pick>
+void gatherObject(const SceneImpl& s, ParticleObjectId id, const char* call, Pick pick,
+                  std::vector<T>& out) {
+  s.requireIdle(call);
+  const ObjectRecord& rec = s.record(id, call);
+  HostParticles all;
+  s.backend->download(all);
+  out.resize(rec.particles);
+  for (size_t i = 0; i < all.size(); ++i)
+    if (all.object[i] == id.index) out[all.local[i]] = pick(all, i);
+}
+}  // namespace
+
+void Scene::readPositions(ParticleObjectId id, std::vector<Vec3f>& out) const {
+  gatherObject(*impl_, id, "readPositions", [](const HostParticles& a, size_t i) { return a.x[i]; }, out);
+}
+void Scene::readVelocities(ParticleObjectId id, std::vector<Vec3f>& out) const {
+  gatherObject(*impl_, id, "readVelocities", [](const HostParticles& a, size_t i) { return a.v[i]; }, out);
+}
+void Scene::readDeformationGradients(ParticleObjectId id, std::vector<Mat3f>& out) const {
+  gatherObject(*impl_, id, "readDeformationGradients",
+               [](const HostParticles& a, size_t i) { return a.F[i]; }, out);
+}
+
+ObjectSummary Scene::summary(ParticleObjectId id) const {
+  impl_->requireIdle("summary");
+  impl_->record(id, "summary");
+  HostParticles all;
+  impl_->backend->download(all);
+  ObjectSummary s;
+  // APIC carries spin in C: a particle's angular momentum about its own position is
+  // m D eps : C^T with D = dx^2 / 4 for quadratic B-splines (Jiang et al. 2015).
+  const double D = 0.25 * (double)impl_->settings.dx * impl_->settings.dx;
+  double lx = 0, ly = 0, lz = 0;
+  for (size_t i = 0; i < all.size(); ++i) {
+    if (all.object[i] != id.index) continue;
+    const double m = all.mass[i];
+    const Vec3f x = all.x[i], v = all.v[i];
+    const Mat3f& C = all.C[i];
+    s.particles++;
+    s.mass += m;
+    s.centerOfMass[0] += m * x.x; s.centerOfMass[1] += m * x.y; s.centerOfMass[2] += m * x.z;
+    s.momentum[0] += m * v.x; s.momentum[1] += m * v.y; s.momentum[2] += m * v.z;
+    lx += m * ((double)x.y * v.z - (double)x.z * v.y) + m * D * (C.m[2][1] - C.m[1][2]);
+    ly += m * ((double)x.z * v.x - (double)x.x * v.z) + m * D * (C.m[0][2] - C.m[2][0]);
+    lz += m * ((double)x.x * v.y - (double)x.y * v.x) + m * D * (C.m[1][0] - C.m[0][1]);
+    s.kineticEnergy += 0.5 * m * ((double)v.x * v.x + (double)v.y * v.y + (double)v.z * v.z);
+  }
+  for (double& c : s.centerOfMass) c /= s.mass;
+  // about the centre of mass: L - c x p
+  const double* c = s.centerOfMass;
+  const double* p = s.momentum;
+  s.angularMomentum[0] = lx - (c[1] * p[2] - c[2] * p[1]);
+  s.angularMomentum[1] = ly - (c[2] * p[0] - c[0] * p[2]);
+  s.angularMomentum[2] = lz - (c[0] * p[1] - c[1] * p[0]);
+  return s;
+}
+
+StageTimings Scene::timings() const { return impl_->backend->timings; }
+void Scene::resetTimings() { impl_->backend->timings = StageTimings{}; }
+size_t Scene::memoryBytes() const { return impl_->backend->memoryBytes(); }
+
+}  // namespace mpm

@@ -1,0 +1,134 @@
+// Constitutive laws and the polar decomposition, checked against closed forms, Eigen and
+// the analytic uniaxial Neo-Hookean curve in reference/ (from shared/reference, CalculiX
+// material law).
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+#include <cstdlib>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+
+#include "core/constitutive.h"
+
+namespace mpm {
+namespace {
+
+Eigen::Matrix3d toEigen(const Mat3f& a) {
+  Eigen::Matrix3d m;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m(i, j) = a.m[i][j];
+  return m;
+}
+
+Mat3f fromEigen(const Eigen::Matrix3d& m) {
+  Mat3f a;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) a.m[i][j] = (float)m(i, j);
+  return a;
+}
+
+Eigen::Matrix3d randomRotation(std::mt19937& rng) {
+  std::normal_distribution<double> n;
+  Eigen::Quaterniond q(n(rng), n(rng), n(rng), n(rng));
+  return q.normalized().toRotationMatrix();
+}
+
+// R from Eigen's SVD with the sign fixed so det R = +1 (the reference for polarRotation).
+Eigen::Matrix3d referenceRotation(const Eigen::Matrix3d& F) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(F, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d U = svd.matrixU(), V = svd.matrixV();
+  if (U.determinant() < 0) U.col(2) *= -1;
+  if (V.determinant() < 0) V.col(2) *= -1;
+  return U * V.transpose();
+}
+
+TEST(PolarDecomposition, MatchesEigenSvdForRandomAndInvertedF) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> s(0.3, 2.0);
+  for (int trial = 0; trial < 500; ++trial) {
+    const Eigen::Matrix3d U = randomRotation(rng), V = randomRotation(rng);
+    Eigen::Vector3d sig(s(rng), s(rng), s(rng));
+    if (trial % 5 == 0) sig(trial % 3) *= -1;  // inverted element
+    const Eigen::Matrix3d F = U * sig.asDiagonal() * V.transpose();
+    float sigma[3];
+    const Eigen::Matrix3d R = toEigen(polarRotation(fromEigen(F), sigma));
+    EXPECT_NEAR(R.determinant(), 1.0, 1e-4) << "trial " << trial;
+    EXPECT_LT((R * R.transpose() - Eigen::Matrix3d::Identity()).norm(), 1e-4) << "trial " << trial;
+    // R^T F must be symmetric (F = R S); for det F > 0 it is also the unique polar factor
+    const Eigen::Matrix3d S = R.transpose() * F;
+    EXPECT_LT((S - S.transpose()).norm(), 1e-4 * F.norm()) << "trial " << trial;
+    if (F.determinant() > 0) EXPECT_LT((R - referenceRotation(F)).norm(), 1e-4) << "trial " << trial;
+    EXPECT_NEAR((double)sigma[0] * sigma[1] * sigma[2], F.determinant(), 1e-4 * std::abs(F.determinant()) + 1e-5);
+  }
+}
+
+TEST(FixedCorotated, PureRotationIsStressFree) {
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 50; ++trial) {
+    const Mat3f R = fromEigen(randomRotation(rng));
+    const Mat3f tau = kirchhoffFixedCorotated(R, 1e5f, 2e5f);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) EXPECT_NEAR(tau.m[i][j], 0.f, 0.05f) << "trial " << trial;
+  }
+}
+
+TEST(FixedCorotated, SmallStrainIsLinearElasticity) {
+  // tau ~ 2 mu eps + lambda tr(eps) I for F = I + eps, eps symmetric and small
+  const float mu = 3e4f, lambda = 5e4f, e = 1e-4f;
+  Mat3f eps;
+  eps.m[0][0] = e; eps.m[1][1] = -0.3f * e; eps.m[2][2] = 0.5f * e;
+  eps.m[0][1] = eps.m[1][0] = 0.2f * e;
+  const Mat3f tau = kirchhoffFixedCorotated(Mat3f::identity() + eps, mu, lambda);
+  const float tr = trace(eps);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const float lin = 2.f * mu * eps.m[i][j] + (i == j ? lambda * tr : 0.f);
+      EXPECT_NEAR(tau.m[i][j], lin, 0.01f * 2.f * mu * e) << i << "," << j;
+    }
+}
+
+// Closed-form homogeneous uniaxial stress of the decoupled Neo-Hookean law (CalculiX
+// NEO HOOKE, mu = 1007 Pa, K = 50001.333 Pa): F = diag(stretch, lat, lat) must give zero
+// lateral Cauchy stress and the tabulated nominal axial stress.
+TEST(NeoHookeanDecoupled, UniaxialMatchesReferenceCurve) {
+  const char* dir = std::getenv("MPM_REFERENCE_DIR");
+  ASSERT_NE(dir, nullptr) << "MPM_REFERENCE_DIR is set by CTest";
+  std::ifstream in(std::string(dir) + "/neo_hookean_uniaxial.csv");
+  ASSERT_TRUE(in.good());
+  const float mu = 1007.f, bulk = 50001.333f;
+  std::string line;
+  int rows = 0;
+  double worst = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#' || line[0] == 's') continue;
+    std::stringstream ss(line);
+    double stretch, nominal, lateral;
+    char c;
+    ss >> stretch >> c >> nominal >> c >> lateral;
+    const Mat3f F = Mat3f::diagonal((float)stretch, (float)lateral, (float)lateral);
+    const Mat3f tau = kirchhoffNeoHookeanDecoupled(F, mu, bulk);
+    // nominal (first Piola) axial stress P = tau F^-T: P_11 = tau_11 / stretch
+    const double P11 = tau.m[0][0] / stretch;
+    worst = std::max(worst, std::abs(P11 - nominal) / std::max(std::abs(nominal), 10.0));
+    // lateral Kirchhoff stress vanishes to float rounding of the K (J-1) term
+    EXPECT_NEAR(tau.m[1][1], 0.f, 0.05f) << "stretch " << stretch;
+    ++rows;
+  }
+  EXPECT_GT(rows, 50);
+  EXPECT_LT(worst, 1e-4) << "largest relative error of the nominal stress";
+}
+
+TEST(NeoHookeanDecoupled, SmallStrainMatchesLameModuli) {
+  const float E = 3000.f, nu = 0.3f;
+  const float mu = E / (2 * (1 + nu)), K = E / (3 * (1 - 2 * nu));
+  const float e = 1e-4f;
+  const Mat3f tau = kirchhoffNeoHookeanDecoupled(Mat3f::diagonal(1 + e, 1, 1), mu, K);
+  const float lambda = K - 2.f * mu / 3.f;
+  EXPECT_NEAR(tau.m[0][0], (lambda + 2 * mu) * e, 0.01f * (lambda + 2 * mu) * e);
+  EXPECT_NEAR(tau.m[1][1], lambda * e, 0.02f * (lambda + 2 * mu) * e);
+}
+
+}  // namespace
+}  // namespace mpm

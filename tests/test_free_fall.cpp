@@ -1,0 +1,44 @@
+// Free fall: before any contact the centre of mass follows x0 + g t^2 / 2.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "mpm/scene.h"
+
+namespace mpm {
+namespace {
+
+TEST(FreeFall, CentreOfMassFollowsParabola) {
+  SceneSettings s;
+  s.domain.lower = {-0.5f, -2.5f, -0.5f};
+  s.domain.upper = {0.5f, 0.5f, 0.5f};
+  s.dx = 0.05f;
+  s.gravity = {0.f, -9.81f, 0.f};
+  // substep 2e-4 s: symplectic Euler's drift g t dt / 2 is then dt / t = 3e-4 of the fall
+  s.substeps.fixedSubsteps = 50;
+  Scene scene(s);
+  ParticleObjectDesc d;
+  d.center = {0.f, 0.2f, 0.f};
+  d.halfExtents = {0.1f, 0.1f, 0.1f};
+  d.material.youngsModulus = 1e5f;
+  const ParticleObjectId id = scene.addParticleObject(d);
+  const double y0 = scene.summary(id).centerOfMass[1];
+
+  const float frame = 0.01f;
+  const int frames = 60;
+  const double T = frames * (double)frame, fall = 0.5 * 9.81 * T * T;
+  double worst = 0;  // largest deviation from the parabola, relative to the whole fall
+  for (int f = 1; f <= frames; ++f) {
+    scene.step(frame);
+    const double t = f * (double)frame;
+    const double expected = y0 - 0.5 * 9.81 * t * t;
+    const ObjectSummary sum = scene.summary(id);
+    worst = std::max(worst, std::abs(sum.centerOfMass[1] - expected) / fall);
+    EXPECT_NEAR(sum.centerOfMass[0], 0.0, 1e-5);
+    EXPECT_NEAR(sum.centerOfMass[2], 0.0, 1e-5);
+  }
+  EXPECT_LT(worst, 1e-3) << "largest error relative to the fall distance " << fall << " m";
+}
+
+}  // namespace
+}  // namespace mpm

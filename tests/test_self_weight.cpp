@@ -1,0 +1,72 @@
+// Self-weight: an elastic column on a slip floor shortens by the uniaxial-stress value
+// rho g / E * integral (H - z) dz. Gravity is switched on suddenly, so the column
+// oscillates about that static value with no damping; the test averages the length
+// over whole periods of the fundamental mode, T = 4 H / sqrt(E / rho).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "mpm/scene.h"
+
+namespace mpm {
+namespace {
+
+TEST(SelfWeight, ColumnOnSlipFloorSettlesToUniaxialShortening) {
+  const float dx = 0.05f, H = 1.f, rho = 1000.f, E = 5e5f, g = 9.81f;
+  SceneSettings s;
+  s.domain.lower = {-0.3f, 0.f, -0.3f};
+  s.domain.upper = {0.3f, 1.3f, 0.3f};
+  s.domain.wallMode = WallMode::Slip;
+  s.dx = dx;
+  s.gravity = {0.f, -g, 0.f};
+  Scene scene(s);
+  ParticleObjectDesc d;
+  // the floor wall acts on nodes 0 and 1; the column stands on node 2 at y = 2 dx
+  d.center = {0.f, 2.f * dx + 0.5f * H, 0.f};
+  d.halfExtents = {0.1f, 0.5f * H, 0.1f};
+  d.material.model = MaterialModel::FixedCorotated;
+  d.material.youngsModulus = E;
+  d.material.poissonRatio = 0.3f;
+  d.material.density = rho;
+  const ParticleObjectId id = scene.addParticleObject(d);
+
+  // top and bottom particle layers, by their initial heights
+  std::vector<Vec3f> x;
+  scene.readPositions(id, x);
+  float yMin = 1e9f, yMax = -1e9f;
+  for (const Vec3f& p : x) { yMin = std::min(yMin, p.y); yMax = std::max(yMax, p.y); }
+  std::vector<size_t> top, bottom;
+  for (size_t i = 0; i < x.size(); ++i) {
+    if (x[i].y > yMax - 1e-4f) top.push_back(i);
+    if (x[i].y < yMin + 1e-4f) bottom.push_back(i);
+  }
+  auto length = [&] {
+    scene.readPositions(id, x);
+    double t = 0, b = 0;
+    for (size_t i : top) t += x[i].y;
+    for (size_t i : bottom) b += x[i].y;
+    return t / top.size() - b / bottom.size();
+  };
+  const double L0 = length();
+  // shortening between the layer centres z0 = yMin and z1 = yMax measured from the base
+  const double z0 = yMin - 2 * dx, z1 = yMax - 2 * dx;
+  const double expected = rho * g / E * ((H * z1 - 0.5 * z1 * z1) - (H * z0 - 0.5 * z0 * z0));
+
+  const double period = 4.0 * H / std::sqrt(E / rho);
+  const int perPeriod = 40;
+  const float frame = (float)(period / perPeriod);
+  for (int f = 0; f < 2 * perPeriod; ++f) scene.step(frame);  // two periods of start-up
+  double sum = 0;
+  const int periods = 8, samples = periods * perPeriod;
+  for (int f = 0; f < samples; ++f) {
+    scene.step(frame);
+    sum += L0 - length();
+  }
+  const double shortening = sum / samples;
+  EXPECT_NEAR(shortening, expected, 0.05 * expected)
+      << "time-averaged shortening " << shortening << " m, uniaxial theory " << expected << " m";
+}
+
+}  // namespace
+}  // namespace mpm

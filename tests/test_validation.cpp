@@ -1,0 +1,185 @@
+// Bad input: every public entry point names the field and the value, changes nothing,
+// and the scene keeps stepping afterwards.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "mpm/scene.h"
+
+namespace mpm {
+namespace {
+
+const float kNaN = std::numeric_limits<float>::quiet_NaN();
+const float kInf = std::numeric_limits<float>::infinity();
+
+SceneSettings goodSettings() {
+  SceneSettings s;
+  s.domain.lower = {-0.5f, 0.f, -0.5f};
+  s.domain.upper = {0.5f, 1.f, 0.5f};
+  s.dx = 0.05f;
+  return s;
+}
+
+ParticleObjectDesc goodBlock() {
+  ParticleObjectDesc d;
+  d.center = {0.f, 0.5f, 0.f};
+  d.halfExtents = {0.1f, 0.1f, 0.1f};
+  return d;
+}
+
+// Runs `bad`, expects InvalidArgument whose field contains `field` and whose message
+// contains `value`.
+template <class F>
+void expectRejected(F bad, const std::string& field, const std::string& value) {
+  try {
+    bad();
+    ADD_FAILURE() << "no error for " << field;
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.field()).find(field), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(value), std::string::npos) << e.what();
+  }
+}
+
+// A scene with one block that must be unchanged by rejected calls and still step.
+struct LiveScene {
+  Scene scene{goodSettings()};
+  ParticleObjectId id = scene.addParticleObject(goodBlock());
+  size_t particles = scene.particleCount(id);
+  void expectStillUsable() {
+    EXPECT_EQ(scene.particleCount(id), particles);
+    const double t = scene.time();
+    scene.step(0.01f);
+    EXPECT_GT(scene.time(), t);
+    std::vector<Vec3f> x;
+    scene.readPositions(id, x);
+    for (const Vec3f& p : x) ASSERT_TRUE(std::isfinite(p.x + p.y + p.z));
+  }
+};
+
+TEST(Validation, CellSizeMustBePositiveAndFinite) {
+  for (float dx : {0.f, -0.1f, kNaN, kInf}) {
+    SceneSettings s = goodSettings();
+    s.dx = dx;
+    expectRejected([&] { Scene scene(s); }, "SceneSettings.dx", "");
+  }
+  SceneSettings s = goodSettings();
+  s.dx = -0.25f;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.dx", "-0.25");
+}
+
+TEST(Validation, DomainMustHavePositiveSize) {
+  SceneSettings s = goodSettings();
+  s.domain.upper = {0.5f, -1.f, 0.5f};
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.domain.upper", "-1");
+  s = goodSettings();
+  s.domain.lower.x = kNaN;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.domain.lower", "nan");
+}
+
+TEST(Validation, GravityAndSubstepPolicyMustBeFinite) {
+  SceneSettings s = goodSettings();
+  s.gravity.y = kInf;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.gravity", "inf");
+  s = goodSettings();
+  s.substeps.cflNumber = 0.f;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.cflNumber", "0");
+  s = goodSettings();
+  s.substeps.fixedSubsteps = -3;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "-3");
+}
+
+TEST(Validation, YoungsModulusMustBePositive) {
+  LiveScene live;
+  for (float E : {0.f, -1e4f, kNaN}) {
+    ParticleObjectDesc d = goodBlock();
+    d.material.youngsModulus = E;
+    expectRejected([&] { live.scene.addParticleObject(d); }, "material.youngsModulus", "");
+  }
+  live.expectStillUsable();
+}
+
+TEST(Validation, PoissonRatioMustLieInOpenInterval) {
+  LiveScene live;
+  for (float nu : {0.5f, -1.f, 0.7f, kNaN}) {
+    ParticleObjectDesc d = goodBlock();
+    d.material.poissonRatio = nu;
+    expectRejected([&] { live.scene.addParticleObject(d); }, "material.poissonRatio", "");
+  }
+  live.expectStillUsable();
+}
+
+TEST(Validation, DensityMustBePositive) {
+  LiveScene live;
+  ParticleObjectDesc d = goodBlock();
+  d.material.density = -5.f;
+  expectRejected([&] { live.scene.addParticleObject(d); }, "material.density", "-5");
+  live.expectStillUsable();
+}
+
+TEST(Validation, ObjectSizesMustBePositive) {
+  LiveScene live;
+  ParticleObjectDesc d = goodBlock();
+  d.halfExtents.y = 0.f;
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.halfExtents", "0");
+  d = goodBlock();
+  d.primitive = PrimitiveType::Sphere;
+  d.radius = -0.1f;
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.radius", "-0.1");
+  d = goodBlock();
+  d.particlesPerCellAxis = 0;
+  expectRejected([&] { live.scene.addParticleObject(d); }, "particlesPerCellAxis", "0");
+  d = goodBlock();
+  d.center.z = kNaN;
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.center", "nan");
+  live.expectStillUsable();
+}
+
+TEST(Validation, ParticlesOutsideDomainAreRejected) {
+  LiveScene live;
+  const size_t before = live.scene.particleCount();
+  ParticleObjectDesc d = goodBlock();
+  d.center = {0.45f, 0.5f, 0.f};  // sticks out of x = 0.5
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.center", "0.45");
+  d.center = {0.f, 0.02f, 0.f};  // inside the floor wall
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.center", "0.02");
+  EXPECT_EQ(live.scene.particleCount(), before) << "nothing was added";
+  live.expectStillUsable();
+}
+
+TEST(Validation, TimeStepMustBePositiveAndFinite) {
+  LiveScene live;
+  for (float dt : {0.f, -0.01f, kNaN, kInf})
+    expectRejected([&] { live.scene.advance(dt); }, "dt", "");
+  live.expectStillUsable();
+}
+
+TEST(Validation, StaleHandleIsRejected) {
+  LiveScene live;
+  const ParticleObjectId other = live.scene.addParticleObject(goodBlock());
+  live.scene.removeParticleObject(other);
+  EXPECT_FALSE(live.scene.isValid(other));
+  std::vector<Vec3f> x;
+  expectRejected([&] { live.scene.readPositions(other, x); }, "ParticleObjectId", "");
+  expectRejected([&] { live.scene.removeParticleObject(other); }, "ParticleObjectId", "");
+  // the slot is reused with a new generation; the old handle stays stale
+  const ParticleObjectId again = live.scene.addParticleObject(goodBlock());
+  EXPECT_EQ(again.index, other.index);
+  EXPECT_FALSE(live.scene.isValid(other));
+  EXPECT_TRUE(live.scene.isValid(again));
+  live.expectStillUsable();
+}
+
+TEST(Validation, ChangingSceneDuringStepIsRefused) {
+  LiveScene live;
+  live.scene.advance(0.01f);
+  EXPECT_THROW(live.scene.addParticleObject(goodBlock()), Error);
+  EXPECT_THROW(live.scene.advance(0.01f), Error);
+  live.scene.fetchResults();
+  live.expectStillUsable();
+}
+
+}  // namespace
+}  // namespace mpm

@@ -1,0 +1,109 @@
+// Domain walls: material never passes them, slip walls keep tangential motion, sticky
+// walls stop it.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "mpm/scene.h"
+
+namespace mpm {
+namespace {
+
+SceneSettings floorBox(WallMode mode) {
+  SceneSettings s;
+  s.domain.lower = {-0.5f, 0.f, -0.5f};
+  s.domain.upper = {0.5f, 1.f, 0.5f};
+  s.domain.wallMode = mode;
+  s.dx = 0.04f;
+  s.gravity = {0.f, -9.81f, 0.f};
+  return s;
+}
+
+ParticleObjectDesc slidingBlock(float height) {
+  ParticleObjectDesc d;
+  d.center = {-0.1f, height, 0.f};
+  d.halfExtents = {0.1f, 0.05f, 0.1f};
+  d.velocity = {0.5f, 0.f, 0.f};
+  d.material.youngsModulus = 2e5f;
+  d.material.poissonRatio = 0.3f;
+  return d;
+}
+
+TEST(Walls, DroppedBlockNeverPassesTheFloor) {
+  for (WallMode mode : {WallMode::Sticky, WallMode::Slip, WallMode::Separate}) {
+    Scene scene(floorBox(mode));
+    ParticleObjectDesc d;
+    d.center = {0.f, 0.5f, 0.f};
+    d.halfExtents = {0.1f, 0.1f, 0.1f};
+    d.velocity = {0.f, -2.f, 0.f};
+    d.material.youngsModulus = 5e4f;
+    const ParticleObjectId id = scene.addParticleObject(d);
+    std::vector<Vec3f> x;
+    float lowest = 1e9f;
+    for (int f = 0; f < 40; ++f) {
+      scene.step(0.01f);
+      scene.readPositions(id, x);
+      for (const Vec3f& p : x) lowest = std::min(lowest, p.y);
+    }
+    // the wall acts on nodes 0 and 1: nothing may get below the second node, y = dx
+    EXPECT_GT(lowest, 0.04f) << "wall mode " << static_cast<int>(mode);
+  }
+}
+
+// Mean x travel of the block's bottom particle layer over 0.3 s of sliding.
+double bottomLayerTravel(WallMode mode, double* velocity) {
+  Scene scene(floorBox(mode));
+  // resting on the floor: bottom particles at y = 2 dx + h/2, inside the wall's reach
+  const ParticleObjectId id = scene.addParticleObject(slidingBlock(0.08f + 0.05f));
+  std::vector<Vec3f> x0, x;
+  scene.readPositions(id, x0);
+  float yMin = 1e9f;
+  for (const Vec3f& p : x0) yMin = std::min(yMin, p.y);
+  for (int f = 0; f < 30; ++f) scene.step(0.01f);
+  scene.readPositions(id, x);
+  double travel = 0;
+  int n = 0;
+  for (size_t i = 0; i < x.size(); ++i)
+    if (x0[i].y < yMin + 1e-4f) travel += x[i].x - x0[i].x, ++n;
+  const ObjectSummary s = scene.summary(id);
+  *velocity = s.momentum[0] / s.mass;
+  return travel / n;
+}
+
+TEST(Walls, SlipFloorKeepsSlidingVelocity) {
+  double v;
+  const double travel = bottomLayerTravel(WallMode::Slip, &v);
+  EXPECT_NEAR(v, 0.5, 0.01) << "frictionless: horizontal velocity kept";
+  EXPECT_NEAR(travel, 0.15, 0.01) << "the bottom slides with the block";
+}
+
+TEST(Walls, StickyFloorHoldsTheBottomLayer) {
+  double v;
+  const double travel = bottomLayerTravel(WallMode::Sticky, &v);
+  EXPECT_LT(std::abs(travel), 0.015) << "bottom layer held (slip floor: 0.15 m)";
+  EXPECT_LT(std::abs(v), 0.25) << "the block's sliding momentum is mostly taken by the wall";
+}
+
+TEST(Walls, SeparateWallLetsMaterialLeave) {
+  // no gravity, a block resting on the floor moving upward: a separating wall lets it go
+  // with its momentum; a slip wall holds the nodes it touches and takes momentum away
+  auto rise = [](WallMode mode) {
+    SceneSettings s = floorBox(mode);
+    s.gravity = {0.f, 0.f, 0.f};
+    Scene scene(s);
+    ParticleObjectDesc d = slidingBlock(0.08f + 0.05f);
+    d.velocity = {0.f, 1.f, 0.f};
+    const ParticleObjectId id = scene.addParticleObject(d);
+    for (int f = 0; f < 10; ++f) scene.step(0.01f);
+    const ObjectSummary sum = scene.summary(id);
+    return sum.momentum[1] / sum.mass;
+  };
+  const double separate = rise(WallMode::Separate), slip = rise(WallMode::Slip);
+  EXPECT_NEAR(separate, 1.0, 0.01);
+  EXPECT_LT(slip, separate - 0.02);
+}
+
+}  // namespace
+}  // namespace mpm
