@@ -17,8 +17,10 @@ struct Vec3f {
   float x = 0, y = 0, z = 0;
   MPM_HD Vec3f() = default;
   MPM_HD Vec3f(float x_, float y_, float z_) : x(x_), y(y_), z(z_) {}
-  MPM_HD float& operator[](int i) { return i == 0 ? x : (i == 1 ? y : z); }
-  MPM_HD float operator[](int i) const { return i == 0 ? x : (i == 1 ? y : z); }
+  // x, y, z are contiguous (standard layout, no padding): indexing them as an array is
+  // what lets loops over axes unroll into plain loads instead of branches
+  MPM_HD float& operator[](int i) { return (&x)[i]; }
+  MPM_HD float operator[](int i) const { return (&x)[i]; }
 };
 
 MPM_HD Vec3f operator+(Vec3f a, Vec3f b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }

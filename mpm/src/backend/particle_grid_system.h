@@ -1,11 +1,12 @@
 #pragma once
 // ParticleGridSystem<Exec>: the substep written once, for any execution backend.
 //
-// Exec supplies memory (allocate/release/copies), a parallel forEach, a reduction of
-// StepCheck, and the two things that genuinely differ between CPU and GPU: binning
-// particles into grid blocks (activating the blocks they reach) and the P2G scatter
-// (coloured blocks without atomics on the CPU, atomics on the GPU). Kernel bodies are
-// the host/device functions in solvers/ and grid/.
+// Exec supplies memory (allocate/release/copies), a parallel forEach, and the things
+// that genuinely differ between CPU and GPU: binning particles into grid blocks
+// (activating the blocks they reach) and how the transfers reach the nodes (on the CPU
+// through a per-block tile, blocks coloured so that no atomics are needed; on the GPU
+// straight into the grid with atomics). Kernel bodies are the host/device functions in
+// solvers/ and grid/, called with either kind of node accessor.
 #include <chrono>
 #include <cstring>
 #include <utility>
@@ -64,14 +65,15 @@ struct ZeroNodes {
   }
 };
 
-template <class Add>
+/// P2G of particle p into `nodes` (the global grid or a block tile).
 struct P2G {
   ParticleView P;
-  GridView grid;
+  GridGeometry geo;
   const MaterialParams* materials;
   float dt;
-  MPM_HD void operator()(uint32_t p) const {
-    if (grid.geo.stencilInside(P.x[p])) mlsP2G<Add>(p, P, grid, materials, dt);
+  template <class Nodes>
+  MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
+    if (geo.stencilInside(P.x[p])) mlsP2G(p, P, geo, nodes, materials, dt);
   }
 };
 
@@ -83,15 +85,16 @@ struct GridUpdate {
   MPM_HD void operator()(size_t n) const { gridUpdateNode((uint32_t)n, grid, dt, gravity, walls); }
 };
 
+/// G2P of particle p from `nodes`, with the per-particle checks.
 struct G2P {
   ParticleView P;
-  GridView grid;
+  GridGeometry geo;
   float dt;
-  MPM_HD StepCheck operator()(size_t p) const {
+  template <class Nodes>
+  MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
     StepCheck c;
     // a particle already outside keeps its state; G2P would read nodes that do not exist
-    if (!grid.geo.stencilInside(P.x[p]) || !mlsG2P((uint32_t)p, P, grid, dt))
-      c.firstBadParticle = (uint32_t)p;
+    if (!geo.stencilInside(P.x[p]) || !mlsG2P(p, P, geo, nodes, dt)) c.firstBadParticle = p;
     c.maxSpeed2 = dot(P.v[p], P.v[p]);
     return c;
   }
@@ -187,7 +190,7 @@ class ParticleGridSystem final : public SimBackend {
     timings.sort += seconds(t0);
 
     t0 = Clock::now();
-    exec_.scatter(bins_, kernels::P2G<typename Exec::Add>{P, grid, materials_.data(), s.dt});
+    exec_.particleToGrid(bins_, kernels::P2G{P, geo_, materials_.data(), s.dt});
     timings.p2g += seconds(t0);
 
     t0 = Clock::now();
@@ -195,7 +198,7 @@ class ParticleGridSystem final : public SimBackend {
     timings.gridUpdate += seconds(t0);
 
     t0 = Clock::now();
-    exec_.forEachCheck(count_, kernels::G2P{P, grid, s.dt});
+    exec_.gridToParticle(bins_, kernels::G2P{P, geo_, s.dt});
     timings.g2p += seconds(t0);
     timings.substeps += 1;
   }

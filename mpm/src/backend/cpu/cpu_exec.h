@@ -1,11 +1,15 @@
 #pragma once
 // CPU execution backend: OpenMP loops over host memory.
 //
-// P2G without float atomics: particles are binned by the 4^3 grid block holding their
-// stencil base. A particle of block b writes only to b and its +1 neighbours, so blocks
-// whose coordinates have the same parities (8 colours) never write the same node and run
-// in parallel. Each node then receives its contributions in a fixed order whatever the
-// thread count, which makes the CPU path bit-for-bit deterministic.
+// Transfers by grid block: particles are binned by the 4^3 block holding their stencil
+// base, so a block's particles reach only a 6^3 tile of nodes (the block and its +1
+// neighbours). P2G accumulates into that tile in L1 and then adds it to the grid; G2P
+// copies the tile's velocities once and gathers from it. No block-table lookup per node.
+//
+// P2G without float atomics: blocks whose coordinates have the same parities (8 colours)
+// never flush to the same node and run in parallel. Each node then receives its
+// contributions in a fixed order whatever the thread count, which makes the CPU path
+// bit-for-bit deterministic.
 #include <omp.h>
 
 #include <algorithm>
@@ -18,15 +22,50 @@
 
 namespace mpm {
 
+/// The 6^3 nodes a block's particles reach, as a dense array.
+struct BlockTile {
+  static constexpr int kEdge = kBlockSize + 2;
+  static constexpr int kNodes = kEdge * kEdge * kEdge;
+  int origin[3];
+  GridNode nodes[kNodes];
+
+  int index(int i, int j, int k) const {
+    return ((i - origin[0]) * kEdge + (j - origin[1])) * kEdge + (k - origin[2]);
+  }
+  void add(int i, int j, int k, float m, Vec3f mv) {
+    GridNode& n = nodes[index(i, j, k)];
+    n.mass += m;
+    n.mv += mv;
+  }
+  Vec3f velocity(int i, int j, int k) const { return nodes[index(i, j, k)].mv; }
+
+  void setBlock(const GridGeometry& geo, uint32_t block) {
+    geo.blockCoords(block, origin[0], origin[1], origin[2]);
+    for (int& o : origin) o <<= kBlockBits;
+  }
+  /// Calls f(tileNode, gridNode) for every tile node that exists in the grid.
+  template <class F>
+  void forEachGridNode(const GridView& grid, F f) {
+    for (int i = 0; i < kEdge; ++i)
+      for (int j = 0; j < kEdge; ++j)
+        for (int k = 0; k < kEdge; ++k) {
+          const int gi = origin[0] + i, gj = origin[1] + j, gk = origin[2] + k;
+          if (gi > grid.geo.cells[0] || gj > grid.geo.cells[1] || gk > grid.geo.cells[2]) continue;
+          f(nodes[(i * kEdge + j) * kEdge + k], grid.node(gi, gj, gk));
+        }
+  }
+};
+
 struct CpuExec {
   int threads = 1;
 
-  explicit CpuExec(int threadCount) : threads(threadCount > 0 ? threadCount : omp_get_max_threads()) {}
+  /// Below this many elements a loop runs on the calling thread: waking the team costs
+  /// more than it saves, and spinning teams are what hurts when the machine is shared.
+  static constexpr long long kMinParallel = 4096;
+  /// Same, in grid blocks (one block holds up to a few hundred particles).
+  static constexpr long long kMinParallelBlocks = 16;
 
-  /// Coloured blocks own their nodes: a plain add is race-free.
-  struct Add {
-    static inline void add(float& a, float b) { a += b; }
-  };
+  explicit CpuExec(int threadCount) : threads(threadCount > 0 ? threadCount : omp_get_max_threads()) {}
 
   template <class T>
   T* allocate(size_t n) {
@@ -42,25 +81,10 @@ struct CpuExec {
 
   template <class F>
   void forEach(size_t n, const F& f) {
-#pragma omp parallel for num_threads(threads) schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static) if ((long long)n >= kMinParallel)
     for (long long i = 0; i < (long long)n; ++i) f((size_t)i);
   }
 
-  /// Runs f over [0, n) and folds the StepCheck it returns into the pending check.
-  template <class F>
-  void forEachCheck(size_t n, const F& f) {
-    float maxSpeed2 = 0.f;
-    uint32_t firstBad = 0xffffffffu;
-#pragma omp parallel for num_threads(threads) schedule(static) reduction(max : maxSpeed2) reduction(min : firstBad)
-    for (long long i = 0; i < (long long)n; ++i) {
-      const StepCheck c = f((size_t)i);
-      maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
-      firstBad = std::min(firstBad, c.firstBadParticle);
-    }
-    // the speed that matters for the next substep count is the latest one
-    check_.maxSpeed2 = maxSpeed2;
-    check_.firstBadParticle = std::min(check_.firstBadParticle, firstBad);
-  }
   StepCheck takeCheck() {
     const StepCheck c = check_;
     check_.firstBadParticle = 0xffffffffu;
@@ -82,7 +106,7 @@ struct CpuExec {
       const size_t n = P.count;
       keys_.resize(n);
       order_.resize(n);
-#pragma omp parallel for num_threads(threads) schedule(static)
+#pragma omp parallel for num_threads(threads) schedule(static) if ((long long)n >= kMinParallel)
       for (long long i = 0; i < (long long)n; ++i)
         keys_[i] = geo_.stencilInside(P.x[i]) ? geo_.particleBlock(P.x[i]) : 0u;  // strays: skipped by P2G
 
@@ -112,15 +136,53 @@ struct CpuExec {
       }
     }
 
+    /// P2G by coloured blocks, each through its own tile.
     template <class F>
-    void scatter(const F& f, int threads) const {
-      for (const auto& blocks : colour_) {
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 1)
-        for (long long k = 0; k < (long long)blocks.size(); ++k) {
-          const uint32_t j = blocks[k];
-          for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r]);
+    void particleToGrid(const F& f, int threads) const {
+      const GridView grid = gridView();
+      // one team for all eight colours; the barrier at the end of each `omp for` keeps
+      // colours apart
+#pragma omp parallel num_threads(threads) if ((long long)occupied_.size() >= kMinParallelBlocks)
+      {
+        BlockTile tile;
+        for (const auto& blocks : colour_) {
+#pragma omp for schedule(dynamic, 1)
+          for (long long b = 0; b < (long long)blocks.size(); ++b) {
+            const uint32_t j = blocks[b];
+            tile.setBlock(geo_, occupied_[j]);
+            for (GridNode& n : tile.nodes) n = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}};
+            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
+            tile.forEachGridNode(grid, [](const GridNode& t, GridNode& g) {
+              g.mass += t.mass;
+              g.mv += t.mv;
+            });
+          }
         }
       }
+    }
+
+    /// G2P by blocks (any order: reads only), each from a tile of grid velocities.
+    template <class F>
+    StepCheck gridToParticle(const F& f, int threads) const {
+      const GridView grid = gridView();
+      float maxSpeed2 = 0.f;
+      uint32_t firstBad = 0xffffffffu;
+#pragma omp parallel num_threads(threads) reduction(max : maxSpeed2) reduction(min : firstBad) \
+    if ((long long)occupied_.size() >= kMinParallelBlocks)
+      {
+        BlockTile tile;
+#pragma omp for schedule(dynamic, 4)
+        for (long long j = 0; j < (long long)occupied_.size(); ++j) {
+          tile.setBlock(geo_, occupied_[j]);
+          tile.forEachGridNode(grid, [](GridNode& t, const GridNode& g) { t = g; });
+          for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) {
+            const StepCheck c = f(order_[r], tile);
+            maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
+            firstBad = std::min(firstBad, c.firstBadParticle);
+          }
+        }
+      }
+      return {maxSpeed2, firstBad};
     }
 
     GridView gridView() const {
@@ -177,7 +239,14 @@ struct CpuExec {
 
   void bin(const ParticleView& P, Binning& b) { b.build(P, threads); }
   template <class F>
-  void scatter(const Binning& b, const F& f) { b.scatter(f, threads); }
+  void particleToGrid(const Binning& b, const F& f) { b.particleToGrid(f, threads); }
+  template <class F>
+  void gridToParticle(const Binning& b, const F& f) {
+    const StepCheck c = b.gridToParticle(f, threads);
+    // the speed that matters for the next substep count is the latest one
+    check_.maxSpeed2 = c.maxSpeed2;
+    check_.firstBadParticle = std::min(check_.firstBadParticle, c.firstBadParticle);
+  }
 };
 
 }  // namespace mpm

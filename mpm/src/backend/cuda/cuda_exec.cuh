@@ -12,6 +12,7 @@
 #include <string>
 
 #include "backend/sim_backend.h"
+#include "solvers/mls_mpm_kernels.h"
 
 namespace mpm {
 
@@ -26,21 +27,24 @@ __global__ void forEachKernel(size_t n, F f) {
   if (i < n) f(i);
 }
 
-/// Folds each element's StepCheck into one device-side check with atomics.
-template <class F>
-__global__ void forEachCheckKernel(size_t n, F f, unsigned int* maxSpeed2Bits, uint32_t* firstBad) {
+/// G2P of every particle straight from the grid, folding each StepCheck into one
+/// device-side check with atomics.
+template <class F, class Nodes>
+__global__ void gridToParticleKernel(size_t n, F f, Nodes nodes, unsigned int* maxSpeed2Bits,
+                                     uint32_t* firstBad) {
   const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
   if (i >= n) return;
-  const StepCheck c = f(i);
+  const StepCheck c = f((uint32_t)i, nodes);
   // non-negative floats order like their bit patterns
   atomicMax(maxSpeed2Bits, __float_as_uint(c.maxSpeed2));
   if (c.firstBadParticle != 0xffffffffu) atomicMin(firstBad, c.firstBadParticle);
 }
 
-template <class F>
-__global__ void scatterKernel(size_t n, const uint32_t* order, F f) {
+/// P2G of every particle, in block order so neighbouring threads hit neighbouring nodes.
+template <class F, class Nodes>
+__global__ void particleToGridKernel(size_t n, const uint32_t* order, F f, Nodes nodes) {
   const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < n) f(order[i]);
+  if (i < n) f(order[i], nodes);
 }
 
 struct CudaExec {
@@ -92,14 +96,6 @@ struct CudaExec {
     cudaCheck(cudaGetLastError(), "kernel launch");
   }
 
-  template <class F>
-  void forEachCheck(size_t n, const F& f) {
-    if (n == 0) return;
-    // the speed that matters for the next substep count is the latest one
-    cudaCheck(cudaMemsetAsync(checkBuffer_, 0, sizeof(uint32_t)), "reset speed");
-    forEachCheckKernel<<<blocksFor(n), kThreads>>>(n, f, checkBuffer_, checkBuffer_ + 1);
-    cudaCheck(cudaGetLastError(), "kernel launch");
-  }
 
   StepCheck takeCheck() {
     uint32_t h[2];
@@ -124,7 +120,9 @@ struct CudaExec {
 
   void bin(const ParticleView& P, Binning& b);
   template <class F>
-  void scatter(const Binning& b, const F& f);
+  void particleToGrid(const Binning& b, const F& f);
+  template <class F>
+  void gridToParticle(const Binning& b, const F& f);
 
  private:
   uint32_t* checkBuffer_ = nullptr;
@@ -250,9 +248,20 @@ class CudaExec::Binning {
 inline void CudaExec::bin(const ParticleView& P, Binning& b) { b.build(P); }
 
 template <class F>
-void CudaExec::scatter(const Binning& b, const F& f) {
+void CudaExec::particleToGrid(const Binning& b, const F& f) {
   if (b.count() == 0) return;
-  scatterKernel<<<blocksFor(b.count()), kThreads>>>(b.count(), b.order(), f);
+  particleToGridKernel<<<blocksFor(b.count()), kThreads>>>(b.count(), b.order(), f,
+                                                           GridNodes<Add>{b.gridView()});
+  cudaCheck(cudaGetLastError(), "kernel launch");
+}
+
+template <class F>
+void CudaExec::gridToParticle(const Binning& b, const F& f) {
+  if (b.count() == 0) return;
+  // the speed that matters for the next substep count is the latest one
+  cudaCheck(cudaMemsetAsync(checkBuffer_, 0, sizeof(uint32_t)), "reset speed");
+  gridToParticleKernel<<<blocksFor(b.count()), kThreads>>>(
+      b.count(), f, GridNodes<Add>{b.gridView()}, checkBuffer_, checkBuffer_ + 1);
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
