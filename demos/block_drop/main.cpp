@@ -33,8 +33,8 @@ int main(int argc, char** argv) {
                 settings.dx, scene.backend() == mpm::Backend::Cuda ? "CUDA" : "CPU");
 
     mpm::io::Camera camera;
-    camera.eye = {1.6f, 1.3f, 2.4f};
-    camera.target = {0.f, 0.35f, 0.f};
+    camera.eye = {1.1f, 0.95f, 1.7f};
+    camera.target = {0.f, 0.3f, 0.f};
     camera.width = 800;
     camera.height = 600;
     mpm::io::SplatRenderer renderer(camera);
