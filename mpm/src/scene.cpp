@@ -9,6 +9,7 @@
 
 #include "backend/sim_backend.h"
 #include "core/validate.h"
+#include "shapes/shape_builder.h"
 
 namespace mpm {
 
@@ -54,6 +55,14 @@ struct ObjectRecord {
   size_t particles = 0;
   MaterialParams material;
   float maxInitialSpeed = 0;
+};
+
+struct ShapeRecord {
+  uint32_t generation = 0;
+  bool alive = false;
+  ShapeDesc desc;
+  ShapeState state;
+  ShapeImpulse lastImpulse;
 };
 
 class SceneImpl {
@@ -199,7 +208,11 @@ class SceneImpl {
     float wave = 0.f;
     for (const auto& o : objects)
       if (o.alive) wave = std::max(wave, pWaveSpeed(o.material));
-    const float speed = wave + maxParticleSpeed;
+    // a moving shape pushes material along at its own speed
+    float shapeSpeed = 0.f;
+    for (const auto& sh : shapes)
+      if (sh.alive) shapeSpeed = std::max(shapeSpeed, norm(sh.state.linearVelocity));
+    const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
     if (speed <= 0.f) return 1;
     const float dtMax = settings.substeps.cflNumber * settings.dx / speed;
     return std::max(1, (int)std::ceil(dt / dtMax - 1e-5f));
@@ -236,11 +249,91 @@ class SceneImpl {
     throw SimulationDiverged(s.str());
   }
 
+  ShapeRecord& shape(ShapeId id, const char* call) {
+    if (!isValid(id)) {
+      std::ostringstream s;
+      s << id.index << "/" << id.generation;
+      throw InvalidArgument(std::string(call) + ": ShapeId", s.str(), "does not name a live shape");
+    }
+    return shapes[id.index];
+  }
+  const ShapeRecord& shape(ShapeId id, const char* call) const {
+    return const_cast<SceneImpl*>(this)->shape(id, call);
+  }
+  bool isValid(ShapeId id) const {
+    return id.index < shapes.size() && shapes[id.index].alive && shapes[id.index].generation == id.generation;
+  }
+
+  ShapeId addShape(const ShapeDesc& d) {
+    requireIdle("addShape");
+    validateShapeDesc(d);
+    uint32_t slot = 0;
+    while (slot < shapes.size() && shapes[slot].alive) ++slot;
+    if (slot == shapes.size()) shapes.emplace_back();
+    ShapeRecord& r = shapes[slot];
+    r.alive = true;
+    r.desc = d;
+    r.state = {d.pose, d.linearVelocity, d.angularVelocity};
+    r.lastImpulse = {};
+    return {slot, r.generation};
+  }
+
+  void removeShape(ShapeId id) {
+    requireIdle("removeShape");
+    ShapeRecord& r = shape(id, "removeShape");
+    r.alive = false;
+    r.generation++;
+    r.desc = ShapeDesc{};  // drops its mesh
+  }
+
+  /// Hands the live shapes to the backend (bodies in shape-slot order, then parts).
+  void uploadShapes() {
+    std::vector<BodyView> bodies;
+    std::vector<PartView> parts;
+    std::vector<const std::vector<float>*> meshes;
+    bodyOfShape.assign(shapes.size(), -1);
+    for (size_t i = 0; i < shapes.size(); ++i) {
+      if (!shapes[i].alive) continue;
+      const int b = (int)bodies.size();
+      bodyOfShape[i] = b;
+      bodies.push_back(makeBody(shapes[i].desc, shapes[i].state));
+      appendParts(shapes[i].desc, b, [&](const std::vector<float>& v) {
+        meshes.push_back(&v);
+        return backend->meshValues(v);
+      }, parts);
+    }
+    backend->releaseMeshesExcept(meshes);
+    backend->setShapes(bodies, parts);
+  }
+
+  /// Reads the shapes' motion and impulses back after an advance.
+  void downloadShapes() {
+    std::vector<BodyView> bodies;
+    backend->readBodies(bodies);
+    const std::vector<ContactSums> impulses = backend->takeImpulses();
+    for (size_t i = 0; i < shapes.size(); ++i) {
+      const int b = i < bodyOfShape.size() ? bodyOfShape[i] : -1;
+      if (!shapes[i].alive || b < 0) continue;
+      ShapeState& st = shapes[i].state;
+      st.pose.position = bodies[b].shapeOrigin;
+      st.pose.rotation = quaternionFromMatrix(bodies[b].rotation);
+      st.linearVelocity = bodies[b].linearVelocity;
+      st.angularVelocity = bodies[b].angularVelocity;
+      const ContactSums& c = impulses[b];
+      shapes[i].lastImpulse = {{c.impulse[0], c.impulse[1], c.impulse[2]}, {c.angular[0], c.angular[1], c.angular[2]}};
+    }
+  }
+
   void advance(float dt) {
     requireIdle("advance");
     validate::positive("Scene::advance dt", dt);
     const int n = substepCount(dt);
-    pending = std::async(std::launch::async, [this, dt, n] { return run(dt, n); });
+    uploadShapes();
+    pending = std::async(std::launch::async, [this, dt, n] {
+      StepReport r = run(dt, n);
+      downloadShapes();
+      return r;
+    });
   }
 
   StepReport fetch() {
@@ -254,6 +347,8 @@ class SceneImpl {
   Backend resolved = Backend::Cpu;
   std::unique_ptr<SimBackend> backend;
   std::vector<ObjectRecord> objects;
+  std::vector<ShapeRecord> shapes;
+  std::vector<int> bodyOfShape;  ///< shape slot -> body index in the backend, or -1
   float maxParticleSpeed = 0.f;
   double time = 0.0;
   std::future<StepReport> pending;
@@ -269,6 +364,23 @@ void Scene::removeParticleObject(ParticleObjectId id) { impl_->remove(id); }
 bool Scene::isValid(ParticleObjectId id) const { return impl_->isValid(id); }
 void Scene::advance(float dt) { impl_->advance(dt); }
 StepReport Scene::fetchResults() { return impl_->fetch(); }
+ShapeId Scene::addShape(const ShapeDesc& d) { return impl_->addShape(d); }
+void Scene::removeShape(ShapeId id) { impl_->removeShape(id); }
+bool Scene::isValid(ShapeId id) const { return impl_->isValid(id); }
+void Scene::setShapeState(ShapeId id, const ShapeState& s) {
+  impl_->requireIdle("setShapeState");
+  ShapeRecord& r = impl_->shape(id, "setShapeState");
+  validateShapeState(s);
+  r.state = s;
+}
+ShapeState Scene::shapeState(ShapeId id) const {
+  impl_->requireIdle("shapeState");
+  return impl_->shape(id, "shapeState").state;
+}
+ShapeImpulse Scene::shapeImpulse(ShapeId id) const {
+  impl_->requireIdle("shapeImpulse");
+  return impl_->shape(id, "shapeImpulse").lastImpulse;
+}
 StepReport Scene::step(float dt) {
   advance(dt);
   return fetchResults();

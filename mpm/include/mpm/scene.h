@@ -12,6 +12,7 @@
 
 #include "mpm/error.h"
 #include "mpm/settings.h"
+#include "mpm/shapes.h"
 
 namespace mpm {
 
@@ -21,7 +22,8 @@ struct StageTimings {
   double sort = 0;        ///< binning particles by grid block, activating grid blocks
   double p2g = 0;         ///< particle-to-grid transfer
   double gridUpdate = 0;  ///< grid velocity update, gravity, walls
-  double g2p = 0;         ///< grid-to-particle transfer, F update
+  double contact = 0;     ///< grid contact with rigid shapes, shape motion
+  double g2p = 0;         ///< grid-to-particle transfer, F update, push-out from shapes
   long long substeps = 0; ///< substeps these times cover
 };
 
@@ -61,6 +63,18 @@ class Scene {
   void removeParticleObject(ParticleObjectId id);
   /// True while `id` names a live object.
   bool isValid(ParticleObjectId id) const;
+
+  /// Adds a rigid shape (validated; throws InvalidArgument naming the field).
+  ShapeId addShape(const ShapeDesc& desc);
+  void removeShape(ShapeId id);
+  bool isValid(ShapeId id) const;
+  /// Sets a shape's pose and velocities (e.g. from its Bullet body) before an advance.
+  /// Within the advance the shape moves on with its velocity.
+  void setShapeState(ShapeId id, const ShapeState& state);
+  /// Pose and velocities after the last advance.
+  ShapeState shapeState(ShapeId id) const;
+  /// Momentum the grid gave the shape during the last advance.
+  ShapeImpulse shapeImpulse(ShapeId id) const;
 
   /// Starts advancing the scene by `dt` seconds (> 0) on a worker thread. The scene must
   /// not be changed until fetchResults() returns.

@@ -85,18 +85,48 @@ struct GridUpdate {
   MPM_HD void operator()(size_t n) const { gridUpdateNode((uint32_t)n, grid, dt, gravity, walls); }
 };
 
-/// G2P of particle p from `nodes`, with the per-particle checks.
+/// G2P of particle p from `nodes`, the push-out from shapes, and the per-particle checks.
 struct G2P {
   ParticleView P;
   GridGeometry geo;
   float dt;
+  const PartView* parts;
+  int nParts;
   template <class Nodes>
   MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
     StepCheck c;
     // a particle already outside keeps its state; G2P would read nodes that do not exist
     if (!geo.stencilInside(P.x[p]) || !mlsG2P(p, P, geo, nodes, dt)) c.firstBadParticle = p;
+    if (nParts) pushOutOfParts(P.x[p], parts, nParts);
     c.maxSpeed2 = dot(P.v[p], P.v[p]);
     return c;
+  }
+};
+
+struct PlaceParts {
+  PartView* parts;
+  const BodyView* bodies;
+  float margin;
+  MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin); }
+};
+
+struct PredictBodies {
+  BodyView* bodies;
+  const ContactSums* sums;
+  MPM_HD void operator()(size_t i) const { predictBodyVelocity(bodies[i], sums[i]); }
+};
+
+struct FinishBodies {
+  BodyView* bodies;
+  const ContactSums* sums;
+  ContactSums* record;  ///< momentum exchanged, summed over the substeps of an advance
+  float dt;
+  MPM_HD void operator()(size_t i) const {
+    finishBodySubstep(bodies[i], sums[i], dt);
+    for (int k = 0; k < 3; ++k) {
+      record[i].impulse[k] += sums[i].impulse[k];
+      record[i].angular[k] += sums[i].angular[k];
+    }
   }
 };
 
@@ -122,6 +152,10 @@ class ParticleGridSystem final : public SimBackend {
 #undef MPM_BIND
     scratch_.bind(&exec_);
     materials_.bind(&exec_);
+    bodies_.bind(&exec_);
+    parts_.bind(&exec_);
+    stepSums_.bind(&exec_);
+    record_.bind(&exec_);
   }
 
   void append(const HostParticles& add) override {
@@ -197,13 +231,72 @@ class ParticleGridSystem final : public SimBackend {
     exec_.forEach(nodes, kernels::GridUpdate{grid, s.dt, s.gravity, s.walls});
     timings.gridUpdate += seconds(t0);
 
+    const int nParts = (int)parts_.size(), nBodies = (int)bodies_.size();
+    if (nParts) {
+      t0 = Clock::now();
+      // the contact band of a node reaches one cell beyond the part's own bounds
+      exec_.forEach(nParts, kernels::PlaceParts{parts_.data(), bodies_.data(), geo_.dx});
+      if (anyDynamic_) {
+        exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 0);
+        exec_.forEach(nBodies, kernels::PredictBodies{bodies_.data(), stepSums_.data()});
+      }
+      exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 1);
+      exec_.forEach(nBodies, kernels::FinishBodies{bodies_.data(), stepSums_.data(), record_.data(), s.dt});
+      timings.contact += seconds(t0);
+    }
+
     t0 = Clock::now();
-    exec_.gridToParticle(bins_, kernels::G2P{P, geo_, s.dt});
+    exec_.gridToParticle(bins_, kernels::G2P{P, geo_, s.dt, parts_.data(), nParts});
     timings.g2p += seconds(t0);
     timings.substeps += 1;
   }
 
   StepCheck takeCheck() override { return exec_.takeCheck(); }
+
+  void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
+    bodies_.resizeDiscard(bodies.size());
+    exec_.copyToDevice(bodies_.data(), bodies.data(), bodies.size() * sizeof(BodyView));
+    parts_.resizeDiscard(parts.size());
+    exec_.copyToDevice(parts_.data(), parts.data(), parts.size() * sizeof(PartView));
+    stepSums_.resizeDiscard(bodies.size());
+    // the impulse record restarts with the new shape list
+    std::vector<ContactSums> zero(bodies.size(), ContactSums{});
+    record_.resizeDiscard(bodies.size());
+    exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
+    anyDynamic_ = false;
+    for (const BodyView& b : bodies) anyDynamic_ = anyDynamic_ || b.dynamic;
+  }
+
+  const float* meshValues(const std::vector<float>& values) override {
+    auto& slot = meshes_[&values];
+    if (!slot) {
+      slot = std::make_unique<ExecArray<float, Exec>>();
+      slot->bind(&exec_);
+      slot->resizeDiscard(values.size());
+      exec_.copyToDevice(slot->data(), values.data(), values.size() * sizeof(float));
+    }
+    return slot->data();
+  }
+
+  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
+    for (auto it = meshes_.begin(); it != meshes_.end();) {
+      bool keep = false;
+      for (const auto* l : live) keep = keep || l == it->first;
+      it = keep ? std::next(it) : meshes_.erase(it);
+    }
+  }
+
+  void readBodies(std::vector<BodyView>& out) const override {
+    out.resize(bodies_.size());
+    exec_.copyToHost(out.data(), bodies_.data(), out.size() * sizeof(BodyView));
+  }
+
+  std::vector<ContactSums> takeImpulses() override {
+    std::vector<ContactSums> out(record_.size()), zero(record_.size(), ContactSums{});
+    exec_.copyToHost(out.data(), record_.data(), out.size() * sizeof(ContactSums));
+    exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
+    return out;
+  }
 
   void download(HostParticles& out) const override {
 #define MPM_DOWNLOAD(type, name) \
@@ -216,7 +309,9 @@ class ParticleGridSystem final : public SimBackend {
   size_t particleCount() const override { return count_; }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = scratch_.bytes() + materials_.bytes() + bins_.memoryBytes();
+    size_t b = scratch_.bytes() + materials_.bytes() + bins_.memoryBytes() + bodies_.bytes() +
+               parts_.bytes() + stepSums_.bytes() + record_.bytes();
+    for (const auto& m : meshes_) b += m.second->bytes();
 #define MPM_BYTES(type, name) b += name##_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -247,6 +342,11 @@ class ParticleGridSystem final : public SimBackend {
 #undef MPM_MEMBER
   ExecArray<uint8_t, Exec> scratch_;
   ExecArray<MaterialParams, Exec> materials_;
+  ExecArray<BodyView, Exec> bodies_;
+  ExecArray<PartView, Exec> parts_;
+  ExecArray<ContactSums, Exec> stepSums_, record_;
+  bool anyDynamic_ = false;
+  std::map<const std::vector<float>*, std::unique_ptr<ExecArray<float, Exec>>> meshes_;
 };
 
 }  // namespace mpm

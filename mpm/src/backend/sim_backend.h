@@ -4,6 +4,7 @@
 // ParticleGridSystem<Exec>, is compiled once per backend (CPU in a .cpp, CUDA in a .cu).
 #include <cstddef>
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "core/particle_state.h"
 #include "grid/block_grid.h"
 #include "grid/grid_update.h"
+#include "shapes/shape_kernels.h"
 #include "mpm/scene.h"
 
 namespace mpm {
@@ -53,6 +55,16 @@ class SimBackend {
   /// The checks of the substeps since the last call (read once per advance, so the GPU
   /// is not waited on inside the substep loop), then cleared.
   virtual StepCheck takeCheck() = 0;
+  /// Replaces the rigid shapes: bodies (motion, contact model) and their parts.
+  virtual void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) = 0;
+  /// Device copy of a mesh's signed distance values, uploaded once and cached by
+  /// address; entries not in `live` are released.
+  virtual const float* meshValues(const std::vector<float>& values) = 0;
+  virtual void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) = 0;
+  /// Bodies as they are now (poses and velocities advanced by the substeps).
+  virtual void readBodies(std::vector<BodyView>& out) const = 0;
+  /// Momentum each body received from the grid since the last call, then cleared.
+  virtual std::vector<ContactSums> takeImpulses() = 0;
   /// Copies the whole particle state to the host.
   virtual void download(HostParticles& out) const = 0;
   virtual size_t particleCount() const = 0;

@@ -185,6 +185,55 @@ struct CpuExec {
       return {maxSpeed2, firstBad};
     }
 
+    /// Grid contact with rigid parts, block by block: a part is tested against a block's
+    /// bounds once, and only then against its nodes. Each block sums its momentum
+    /// exchange per body on its own; the blocks' sums are added in slot order, so the
+    /// result does not depend on the thread count.
+    void contactPass(const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
+                     ContactSums* out, int pass, int threads) {
+      const GridView grid = gridView();
+      const size_t nActive = active_.size();
+      blockSums_.resize(nActive * nBodies);
+      touched_.assign(nActive, 0);
+#pragma omp parallel for num_threads(threads) schedule(dynamic, 8) \
+    if ((long long)nActive >= kMinParallelBlocks)
+      for (long long slot = 0; slot < (long long)nActive; ++slot) {
+        int bx, by, bz;
+        geo_.blockCoords(active_[slot], bx, by, bz);
+        const int o[3] = {bx << kBlockBits, by << kBlockBits, bz << kBlockBits};
+        const Vec3f lo = geo_.lower + geo_.dx * Vec3f{(float)o[0], (float)o[1], (float)o[2]};
+        const Vec3f hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
+        ContactSums* sums = &blockSums_[slot * nBodies];
+        bool any = false;
+        for (int p = 0; p < nParts; ++p) {
+          if (!parts[p].mayTouch(lo, hi)) continue;
+          if (!any) {
+            for (int b = 0; b < nBodies; ++b) sums[b] = ContactSums{};
+            any = true;
+          }
+          ContactSums& bodySums = sums[parts[p].body];
+          for (int n = 0; n < kBlockNodes; ++n) {
+            GridNode& node = grid.nodes[slot * kBlockNodes + n];
+            if (node.mass <= 0.f) continue;
+            const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
+                                                         (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
+                                                         (float)(o[2] + (n & kBlockMask))};
+            contactNodePart(x, node.mass, node.mv, parts[p], bodies, bodySums, pass);
+          }
+        }
+        touched_[slot] = any;
+      }
+      for (int b = 0; b < nBodies; ++b) out[b] = ContactSums{};
+      for (size_t slot = 0; slot < nActive; ++slot) {
+        if (!touched_[slot]) continue;
+        for (int b = 0; b < nBodies; ++b) {
+          const float* src = &blockSums_[slot * nBodies + b].impulse[0];
+          float* dst = &out[b].impulse[0];
+          for (int k = 0; k < kContactSumFloats; ++k) dst[k] += src[k];
+        }
+      }
+    }
+
     GridView gridView() const {
       GridView g;
       g.geo = geo_;
@@ -235,11 +284,17 @@ struct CpuExec {
     std::vector<uint32_t> keys_, order_, occupied_, start_, cursor_, active_;
     std::vector<uint32_t> colour_[8];
     std::vector<GridNode> nodes_;
+    std::vector<ContactSums> blockSums_;
+    std::vector<uint8_t> touched_;
   };
 
   void bin(const ParticleView& P, Binning& b) { b.build(P, threads); }
   template <class F>
   void particleToGrid(const Binning& b, const F& f) { b.particleToGrid(f, threads); }
+  void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
+                   ContactSums* out, int pass) {
+    b.contactPass(parts, nParts, bodies, nBodies, out, pass, threads);
+  }
   template <class F>
   void gridToParticle(const Binning& b, const F& f) {
     const StepCheck c = b.gridToParticle(f, threads);

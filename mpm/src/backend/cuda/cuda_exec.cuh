@@ -47,6 +47,30 @@ __global__ void particleToGridKernel(size_t n, const uint32_t* order, F f, Nodes
   if (i < n) f(order[i], nodes);
 }
 
+/// Grid contact per active node; each touched part's momentum exchange is added
+/// atomically to its body's sums.
+static __global__ void contactKernel(GridView grid, const PartView* parts, int nParts, const BodyView* bodies,
+                              ContactSums* out, int pass) {
+  const size_t n = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
+  if (n >= (size_t)grid.activeCount * kBlockNodes) return;
+  GridNode& node = grid.nodes[n];
+  if (node.mass <= 0.f) return;
+  int bx, by, bz;
+  grid.geo.blockCoords(grid.activeBlocks[n / kBlockNodes], bx, by, bz);
+  const int local = (int)(n % kBlockNodes);
+  const Vec3f x = grid.geo.lower + grid.geo.dx * Vec3f{(float)((bx << kBlockBits) + (local >> (2 * kBlockBits))),
+                                                       (float)((by << kBlockBits) + ((local >> kBlockBits) & kBlockMask)),
+                                                       (float)((bz << kBlockBits) + (local & kBlockMask))};
+  for (int p = 0; p < nParts; ++p) {
+    if (!parts[p].mayTouch(x, x)) continue;
+    ContactSums s{};
+    if (!contactNodePart(x, node.mass, node.mv, parts[p], bodies, s, pass)) continue;
+    float* dst = &out[parts[p].body].impulse[0];
+    const float* src = &s.impulse[0];
+    for (int k = 0; k < kContactSumFloats; ++k) atomicAdd(dst + k, src[k]);
+  }
+}
+
 struct CudaExec {
   static constexpr int kThreads = 256;
 
@@ -119,6 +143,8 @@ struct CudaExec {
   class Binning;
 
   void bin(const ParticleView& P, Binning& b);
+  void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
+                   ContactSums* out, int pass);
   template <class F>
   void particleToGrid(const Binning& b, const F& f);
   template <class F>
@@ -246,6 +272,15 @@ class CudaExec::Binning {
 };
 
 inline void CudaExec::bin(const ParticleView& P, Binning& b) { b.build(P); }
+
+inline void CudaExec::contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies,
+                                  int nBodies, ContactSums* out, int pass) {
+  cudaCheck(cudaMemsetAsync(out, 0, nBodies * sizeof(ContactSums)), "clear contact sums");
+  const size_t nodes = (size_t)b.gridView().activeCount * kBlockNodes;
+  if (nodes == 0) return;
+  contactKernel<<<blocksFor(nodes), kThreads>>>(b.gridView(), parts, nParts, bodies, out, pass);
+  cudaCheck(cudaGetLastError(), "kernel launch");
+}
 
 template <class F>
 void CudaExec::particleToGrid(const Binning& b, const F& f) {

@@ -1,0 +1,61 @@
+#pragma once
+/// Triangle meshes and the signed distance grids sampled from them: the form in which an
+/// imported mesh (a tool, an organ) becomes a rigid shape the MPM grid can see, or a
+/// volume to fill with tissue particles. Geometry only; loading files is bullet_bridge's.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "mpm/math.h"
+
+namespace mpm {
+
+/// An indexed triangle mesh in its own frame [m]. Triangles are wound counter-clockwise
+/// seen from outside (outward normals), as OBJ/STL/glTF exporters write them.
+struct TriangleMesh {
+  std::vector<Vec3f> vertices;
+  std::vector<uint32_t> indices;  ///< three per triangle
+  size_t triangleCount() const { return indices.size() / 3; }
+};
+
+/// Is the mesh closed? A watertight mesh has every edge shared by exactly two triangles
+/// with opposite orientation; only then is "inside" well defined.
+struct WatertightReport {
+  bool watertight = false;
+  size_t boundaryEdges = 0;      ///< edges used by one triangle (holes)
+  size_t nonManifoldEdges = 0;   ///< edges used by more than two triangles
+  size_t misorientedEdges = 0;   ///< edges whose two triangles traverse them the same way
+  std::string reason;            ///< human-readable summary, empty when watertight
+};
+WatertightReport checkWatertight(const TriangleMesh& mesh);
+
+/// A signed distance field on a regular grid (negative inside), in the mesh's frame.
+/// Sample (i, j, k) is at lower + cellSize * (i, j, k); values are stored with k fastest:
+/// values[(i * dims[1] + j) * dims[2] + k].
+struct SignedDistanceGrid {
+  Vec3f lower;
+  float cellSize = 0;  ///< [m]
+  int dims[3] = {0, 0, 0};
+  std::vector<float> values;  ///< [m]
+  /// False when the source mesh is not watertight: the magnitude is still the distance to
+  /// the surface, but the sign (inside/outside) came from a generalized winding number
+  /// and may be wrong near holes. `signWarning` says why.
+  bool signReliable = true;
+  std::string signWarning;
+
+  /// Trilinear sample [m]. Outside the grid: the value at the nearest grid point plus the
+  /// distance to it (an upper bound of the true distance).
+  float sample(Vec3f p) const;
+  /// Gradient of the trilinear field (unit length where the field is a distance).
+  Vec3f gradient(Vec3f p) const;
+  Vec3f upper() const { return lower + cellSize * Vec3f{(float)dims[0] - 1, (float)dims[1] - 1, (float)dims[2] - 1}; }
+};
+
+/// Samples the signed distance to `mesh` on a grid of `cellSize` [m] covering the mesh's
+/// bounds plus `paddingCells` on every side. The sign comes from the generalized winding
+/// number (robust to small holes); a mesh that is not watertight yields signReliable =
+/// false with the reason. Throws InvalidArgument for an empty mesh, out-of-range indices,
+/// or a non-positive cell size.
+SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellSize, int paddingCells = 3);
+
+}  // namespace mpm

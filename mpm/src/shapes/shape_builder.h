@@ -1,0 +1,40 @@
+#pragma once
+// From the public ShapeDesc to the kernels' BodyView and PartViews, with validation.
+#include <string>
+#include <vector>
+
+#include "mpm/shapes.h"
+#include "shapes/shape_kernels.h"
+
+namespace mpm {
+
+/// Rotation matrix of a unit quaternion.
+Mat3f rotationMatrix(const Quat& q);
+/// Quaternion of a rotation matrix (for reporting poses back).
+Quat quaternionFromMatrix(const Mat3f& R);
+
+/// Throws InvalidArgument naming the field for any invalid value of `desc`.
+void validateShapeDesc(const ShapeDesc& desc);
+/// Throws InvalidArgument for a non-finite pose or velocity, or a zero quaternion.
+void validateShapeState(const ShapeState& state);
+
+/// The body of a shape in `state`. Mesh parts take their values pointer from `meshValues`.
+BodyView makeBody(const ShapeDesc& desc, const ShapeState& state);
+/// Appends the shape's parts for body `bodyIndex`; `meshValues(values)` maps a mesh's
+/// host values to the backend's copy.
+template <class MeshValues>
+void appendParts(const ShapeDesc& desc, int bodyIndex, MeshValues meshValues, std::vector<PartView>& out);
+
+/// The part without its mesh pointer (kept non-template for the .cpp).
+PartView makePart(const Geometry& g, int bodyIndex);
+
+template <class MeshValues>
+void appendParts(const ShapeDesc& desc, int bodyIndex, MeshValues meshValues, std::vector<PartView>& out) {
+  for (const Geometry& g : desc.parts) {
+    PartView p = makePart(g, bodyIndex);
+    if (g.type == GeometryType::Mesh) p.sdfValues = meshValues(g.sdf->values);
+    out.push_back(p);
+  }
+}
+
+}  // namespace mpm

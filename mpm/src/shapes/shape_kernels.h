@@ -1,0 +1,245 @@
+#pragma once
+// Rigid shapes as the kernels see them: bodies (rigid motion, mass, contact model) and
+// parts (one primitive each, placed in a body). Grid contact follows DESIGN section 5 /
+// seed 000 eqs. 17-18; the momentum it removes from the grid goes to the body.
+#include "mpm/math.h"
+#include "shapes/sdf_primitives.h"
+
+namespace mpm {
+
+enum : int { kContactFrictional = 0, kContactSticky = 1, kContactBonded = 2 };
+enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh };
+
+/// Rigid motion and contact model of one shape.
+struct BodyView {
+  Vec3f com;            ///< centre of mass, world [m]
+  Mat3f rotation;       ///< shape frame -> world
+  Vec3f linearVelocity; ///< of the centre of mass [m/s]
+  Vec3f angularVelocity;///< world [rad/s]
+  Vec3f shapeOrigin;    ///< world position of the shape frame's origin [m]
+  int mode = kContactFrictional;
+  float friction = 0.f, drag = 1.f, band = 0.f;
+  int dynamic = 0;      ///< 1: velocity responds to the grid within the step
+  float mass = 0.f;     ///< [kg] (dynamic)
+  Vec3f inertia;        ///< principal moments in the shape frame [kg m^2] (dynamic)
+  Vec3f gravity;        ///< acceleration between substeps [m/s^2] (dynamic)
+  Vec3f comLocal;       ///< centre of mass in the shape frame [m]
+  Vec3f v0, w0;         ///< velocities at the start of the substep (implicit update)
+
+  MPM_HD Vec3f velocityAt(Vec3f x) const { return linearVelocity + cross(angularVelocity, x - com); }
+};
+
+/// One primitive of a body, with its world placement and bounds for the broad phase.
+struct PartView {
+  int type = kPartBox;
+  int body = 0;
+  Vec3f halfExtents;
+  float radius = 0.f, halfHeight = 0.f;
+  int axis = 1;
+  const float* sdfValues = nullptr;  ///< (Mesh) grid values in Exec memory
+  int sdfDims[3] = {0, 0, 0};
+  Vec3f sdfLower;
+  float sdfCell = 0.f;
+  Mat3f rotation;        ///< part frame -> world, this substep
+  Vec3f position;        ///< part frame origin, world
+  Vec3f boundsLower, boundsUpper;  ///< world AABB grown by the contact band and a cell
+  Mat3f localRotation;   ///< part frame -> shape frame
+  Vec3f localPosition;   ///< part origin in the shape frame
+  Vec3f localLower, localUpper;  ///< the part's bounds in its own frame (planes: large)
+
+  /// Signed distance [m] and outward unit normal (world) at world point x.
+  MPM_HD float distance(Vec3f x, Vec3f& n) const {
+    const Vec3f p = transpose(rotation) * (x - position);
+    Vec3f nl;
+    float d;
+    switch (type) {
+      case kPartPlane: d = sdfPlane(p, nl); break;
+      case kPartSphere: d = sdfSphere(p, radius, nl); break;
+      case kPartCapsule: d = sdfCapsule(p, radius, halfHeight, axis, nl); break;
+      case kPartCylinder: d = sdfCylinder(p, radius, halfHeight, axis, nl); break;
+      case kPartMesh: {
+        d = sdfGridSample(sdfValues, sdfDims, sdfLower, sdfCell, p, nl);
+        const float len = norm(nl);
+        nl = len > 1e-12f ? (1.f / len) * nl : Vec3f{0.f, 1.f, 0.f};
+        break;
+      }
+      case kPartBox:
+      default: d = sdfBox(p, halfExtents, nl); break;
+    }
+    n = rotation * nl;
+    return d;
+  }
+  MPM_HD bool mayTouch(Vec3f lo, Vec3f hi) const {
+    return !(hi.x < boundsLower.x || lo.x > boundsUpper.x || hi.y < boundsLower.y ||
+             lo.y > boundsUpper.y || hi.z < boundsLower.z || lo.z > boundsUpper.z);
+  }
+};
+
+/// Velocity of a grid node after contact with a body (seed 000 eqs. 17-18, DESIGN 5).
+/// `phi`, `n`: the node's signed distance and outward normal. Returns v unchanged when
+/// the node is outside the contact band or separating (unless bonded).
+MPM_HD Vec3f contactVelocity(Vec3f v, Vec3f vRigid, Vec3f n, const BodyView& b) {
+  if (b.mode == kContactBonded) return vRigid;
+  const Vec3f vrel = v - vRigid;
+  const float vn = dot(vrel, n);
+  if (vn >= 0.f) return v;  // separating
+  if (b.mode == kContactSticky) return vRigid;
+  const Vec3f vt = vrel - vn * n;
+  const float vtLen = norm(vt);
+  // Coulomb: friction only ever slows the slip, by mu_k |v_n|, never reverses it
+  const float keep = vtLen > 1e-20f ? fmaxf(1.f - b.friction * fabsf(vn) / vtLen, 0.f) : 0.f;
+  return vRigid + (b.drag * keep) * vt;
+}
+
+/// Momentum a node exchanges with a body, accumulated per body: the impulse on the
+/// body, its moment about the body's centre of mass, and the mass and inertia of the
+/// nodes in contact (the "effective mass" of the implicit velocity update).
+struct ContactSums {
+  float impulse[3];
+  float angular[3];
+  float mass;
+  float inertia[6];  ///< xx, yy, zz, xy, xz, yz about the body's centre of mass
+};
+constexpr int kContactSumFloats = 13;
+
+MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
+  const Vec3f h = cross(r, dp);
+  s.impulse[0] += dp.x; s.impulse[1] += dp.y; s.impulse[2] += dp.z;
+  s.angular[0] += h.x; s.angular[1] += h.y; s.angular[2] += h.z;
+  s.mass += m;
+  s.inertia[0] += m * (r.y * r.y + r.z * r.z);
+  s.inertia[1] += m * (r.x * r.x + r.z * r.z);
+  s.inertia[2] += m * (r.x * r.x + r.y * r.y);
+  s.inertia[3] -= m * r.x * r.y;
+  s.inertia[4] -= m * r.x * r.z;
+  s.inertia[5] -= m * r.y * r.z;
+}
+
+/// Contact of one grid node with one part. Pass 0 (dynamic bodies only) measures what an
+/// immovable body would take from the node without changing it; pass 1 applies the
+/// contact against the body's updated velocity and records the momentum exchanged.
+/// Returns true if the node touched the part (and `sums`, the part's body's, grew).
+MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, const PartView& part, const BodyView* bodies,
+                            ContactSums& sums, int pass) {
+  const BodyView& b = bodies[part.body];
+  if (pass == 0 && !b.dynamic) return false;
+  Vec3f n;
+  const float phi = part.distance(x, n);
+  if (phi >= b.band) return false;
+  const Vec3f vNew = contactVelocity(v, b.velocityAt(x), n, b);
+  const Vec3f dp = mass * (v - vNew);
+  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) return false;
+  addContact(sums, dp, x - b.com, mass);
+  if (pass == 1) v = vNew;
+  return true;
+}
+
+/// Pushes a particle that ended inside a part back to its surface.
+MPM_HD void pushOutOfParts(Vec3f& x, const PartView* parts, int nParts) {
+  for (int i = 0; i < nParts; ++i) {
+    if (!parts[i].mayTouch(x, x)) continue;
+    Vec3f n;
+    const float phi = parts[i].distance(x, n);
+    if (phi < 0.f) x -= phi * n;
+  }
+}
+
+/// Inverse of a symmetric 3x3 matrix given as xx, yy, zz, xy, xz, yz.
+MPM_HD Mat3f inverseSymmetric(const float s[6]) {
+  Mat3f a;
+  a.m[0][0] = s[0]; a.m[1][1] = s[1]; a.m[2][2] = s[2];
+  a.m[0][1] = a.m[1][0] = s[3]; a.m[0][2] = a.m[2][0] = s[4]; a.m[1][2] = a.m[2][1] = s[5];
+  const float det = determinant(a);
+  Mat3f inv;
+  if (fabsf(det) < 1e-30f) return inv;  // zero: no rotational response
+  inv.m[0][0] = (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) / det;
+  inv.m[0][1] = (a.m[0][2] * a.m[2][1] - a.m[0][1] * a.m[2][2]) / det;
+  inv.m[0][2] = (a.m[0][1] * a.m[1][2] - a.m[0][2] * a.m[1][1]) / det;
+  inv.m[1][0] = inv.m[0][1];
+  inv.m[1][1] = (a.m[0][0] * a.m[2][2] - a.m[0][2] * a.m[2][0]) / det;
+  inv.m[1][2] = (a.m[0][2] * a.m[1][0] - a.m[0][0] * a.m[1][2]) / det;
+  inv.m[2][0] = inv.m[0][2];
+  inv.m[2][1] = inv.m[1][2];
+  inv.m[2][2] = (a.m[0][0] * a.m[1][1] - a.m[0][1] * a.m[1][0]) / det;
+  return inv;
+}
+
+/// World inertia tensor of a body as xx, yy, zz, xy, xz, yz.
+MPM_HD void worldInertia(const BodyView& b, float out[6]) {
+  const Mat3f& R = b.rotation;
+  Mat3f I;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      I.m[i][j] = R.m[i][0] * b.inertia.x * R.m[j][0] + R.m[i][1] * b.inertia.y * R.m[j][1] +
+                  R.m[i][2] * b.inertia.z * R.m[j][2];
+  out[0] = I.m[0][0]; out[1] = I.m[1][1]; out[2] = I.m[2][2];
+  out[3] = I.m[0][1]; out[4] = I.m[0][2]; out[5] = I.m[1][2];
+}
+
+/// R <- exp([w dt]x) R (Rodrigues), integrating a body's orientation inside a step.
+MPM_HD Mat3f rotateBy(const Mat3f& R, Vec3f w, float dt) {
+  const float angle = norm(w) * dt;
+  if (angle < 1e-12f) return R;
+  const Vec3f k = (1.f / norm(w)) * w;
+  const float c = cosf(angle), s = sinf(angle);
+  // Rodrigues' rotation matrix
+  Mat3f K;
+  K.m[0][1] = -k.z; K.m[0][2] = k.y; K.m[1][0] = k.z; K.m[1][2] = -k.x; K.m[2][0] = -k.y; K.m[2][1] = k.x;
+  const Mat3f Rk = Mat3f::identity() + s * K + (1.f - c) * (K * K);
+  return Rk * R;
+}
+
+}  // namespace mpm
+
+namespace mpm {
+
+/// Implicit velocity prediction of a dynamic body from pass 0: the body and the nodes it
+/// touches move on together, V' = V + J / (M + M_c), w' = w + (I + I_c)^-1 H. With the
+/// nodes then projected against V', a body lighter than the tissue it touches receives
+/// M / (M + M_c) of the momentum an immovable body would: no overshoot, no oscillation.
+MPM_HD void predictBodyVelocity(BodyView& b, const ContactSums& s) {
+  b.v0 = b.linearVelocity;
+  b.w0 = b.angularVelocity;
+  if (!b.dynamic || s.mass <= 0.f) return;
+  b.linearVelocity = b.linearVelocity + (1.f / (b.mass + s.mass)) * Vec3f{s.impulse[0], s.impulse[1], s.impulse[2]};
+  float I[6];
+  worldInertia(b, I);
+  for (int k = 0; k < 6; ++k) I[k] += s.inertia[k];
+  b.angularVelocity = b.angularVelocity + inverseSymmetric(I) * Vec3f{s.angular[0], s.angular[1], s.angular[2]};
+}
+
+/// After pass 1: the body's velocity from the momentum it actually received (so total
+/// momentum is conserved exactly), gravity, then its pose advanced by dt.
+MPM_HD void finishBodySubstep(BodyView& b, const ContactSums& s, float dt) {
+  if (b.dynamic) {
+    b.linearVelocity = b.v0 + (1.f / b.mass) * Vec3f{s.impulse[0], s.impulse[1], s.impulse[2]};
+    float I[6];
+    worldInertia(b, I);
+    b.angularVelocity = b.w0 + inverseSymmetric(I) * Vec3f{s.angular[0], s.angular[1], s.angular[2]};
+    b.linearVelocity += dt * b.gravity;
+  }
+  b.com += dt * b.linearVelocity;
+  b.rotation = rotateBy(b.rotation, b.angularVelocity, dt);
+  b.shapeOrigin = b.com - b.rotation * b.comLocal;
+}
+
+/// World placement and bounds of a part from its body's pose.
+MPM_HD void placePart(PartView& p, const BodyView& b, float margin) {
+  p.rotation = b.rotation * p.localRotation;
+  p.position = b.shapeOrigin + b.rotation * p.localPosition;
+  Vec3f lo{3.4e38f, 3.4e38f, 3.4e38f}, hi{-3.4e38f, -3.4e38f, -3.4e38f};
+  for (int c = 0; c < 8; ++c) {
+    const Vec3f corner{(c & 1) ? p.localUpper.x : p.localLower.x, (c & 2) ? p.localUpper.y : p.localLower.y,
+                       (c & 4) ? p.localUpper.z : p.localLower.z};
+    const Vec3f w = p.position + p.rotation * corner;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = fminf(lo[a], w[a]);
+      hi[a] = fmaxf(hi[a], w[a]);
+    }
+  }
+  const float grow = margin + (b.band > 0.f ? b.band : 0.f);
+  p.boundsLower = lo - Vec3f{grow, grow, grow};
+  p.boundsUpper = hi + Vec3f{grow, grow, grow};
+}
+
+}  // namespace mpm
