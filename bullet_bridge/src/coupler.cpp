@@ -1,0 +1,181 @@
+#include "mpm_bullet/coupler.h"
+
+#include <btBulletDynamicsCommon.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+
+#include "mpm_bullet/shape_conversion.h"
+
+namespace mpm::bullet {
+
+struct Coupler::Link {
+  btCollisionObject* object;
+  btRigidBody* rigid;   ///< or null
+  btMultiBody* multi;   ///< or null
+  int link;             ///< multibody link index, -1 for the base
+  ShapeId shape;
+  bool dynamic;
+  btVector3 force{0, 0, 0}, torque{0, 0, 0};  ///< multibody: applied over the next tick
+};
+
+namespace {
+
+Vec3f toVec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
+btVector3 toBt(Vec3f v) { return {v.x, v.y, v.z}; }
+
+void postTick(btDynamicsWorld* world, btScalar dt) {
+  static_cast<Coupler*>(world->getWorldUserInfo())->tick((float)dt);
+}
+
+void preTick(btDynamicsWorld* world, btScalar) {
+  static_cast<Coupler*>(world->getWorldUserInfo())->applyLinkForces(+1.f);
+}
+
+/// Adds (sign +1) or takes back (sign -1) a multibody link's coupling force.
+void addLinkForce(btMultiBody* mb, int link, const btVector3& f, const btVector3& tau) {
+  if (link < 0) {
+    mb->addBaseForce(f);
+    mb->addBaseTorque(tau);
+  } else {
+    mb->addLinkForce(link, f);
+    mb->addLinkTorque(link, tau);
+  }
+}
+
+/// World-frame velocities of a multibody link's centre of mass (index -1: the base).
+void multiBodyLinkVelocity(const btMultiBody* mb, int link, const btTransform& linkFrame, btVector3& v,
+                           btVector3& w) {
+  if (link < 0) {
+    v = mb->getBaseVel();
+    w = mb->getBaseOmega();
+    return;
+  }
+  // Featherstone velocities come in each link's own frame, base first
+  btAlignedObjectArray<btVector3> omega, vel;
+  omega.resize(mb->getNumLinks() + 1);
+  vel.resize(mb->getNumLinks() + 1);
+  mb->compTreeLinkVelocities(&omega[0], &vel[0]);
+  v = linkFrame.getBasis() * vel[link + 1];
+  w = linkFrame.getBasis() * omega[link + 1];
+}
+
+}  // namespace
+
+Coupler::Coupler(btDynamicsWorld* world, Scene& scene) : world_(world), scene_(scene) {
+  if (!world) throw InvalidArgument("Coupler world", "null", "needs a Bullet dynamics world");
+  world_->setInternalTickCallback(&postTick, this, false);
+  world_->setInternalTickCallback(&preTick, this, true);
+}
+
+Coupler::~Coupler() {
+  world_->setInternalTickCallback(nullptr, nullptr, false);
+  world_->setInternalTickCallback(nullptr, nullptr, true);
+}
+
+void Coupler::applyLinkForces(float sign) {
+  // Bullet clears multibody forces only when stepSimulation returns, not between its
+  // internal ticks: each tick's force is added before the tick and taken back after it
+  for (Link& l : links_)
+    if (l.multi && l.dynamic) addLinkForce(l.multi, l.link, sign * l.force, sign * l.torque);
+}
+
+ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
+                           const CouplingOptions& options) {
+  const float cell = options.sdfCellSize > 0.f ? options.sdfCellSize : 0.5f * scene_.settings().dx;
+  ShapeDesc d;
+  d.parts = convertShape(object->getCollisionShape(), cell);
+  d.contact = options.contact;
+  const btTransform& t = object->getWorldTransform();
+  const btQuaternion q = t.getRotation();
+  d.pose = {toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};
+  bool dynamic = false;
+  if (rigid && rigid->getInvMass() > 0.f) {
+    dynamic = true;
+    d.mass = 1.f / (float)rigid->getInvMass();
+    const btVector3 invI = rigid->getInvInertiaDiagLocal();
+    d.inertia = {invI.x() > 0 ? 1.f / (float)invI.x() : 1e30f, invI.y() > 0 ? 1.f / (float)invI.y() : 1e30f,
+                 invI.z() > 0 ? 1.f / (float)invI.z() : 1e30f};
+    d.linearVelocity = toVec(rigid->getLinearVelocity());
+    d.angularVelocity = toVec(rigid->getAngularVelocity());
+  } else if (multi) {
+    const float m = link < 0 ? (float)multi->getBaseMass() : (float)multi->getLink(link).m_mass;
+    const btVector3 I = link < 0 ? multi->getBaseInertia() : multi->getLink(link).m_inertiaLocal;
+    if (m > 0.f && !(link < 0 && multi->hasFixedBase())) {
+      dynamic = true;
+      d.mass = m;
+      d.inertia = toVec(I);
+    }
+  }
+  const ShapeId id = scene_.addShape(d);
+  links_.push_back({object, rigid, multi, link, id, dynamic});
+  return id;
+}
+
+ShapeId Coupler::addRigidBody(btRigidBody* body, const CouplingOptions& options) {
+  if (!body) throw InvalidArgument("Coupler::addRigidBody body", "null", "no body given");
+  return addObject(body, body, nullptr, -1, options);
+}
+
+std::vector<ShapeId> Coupler::addMultiBody(btMultiBody* body, const CouplingOptions& options) {
+  if (!body) throw InvalidArgument("Coupler::addMultiBody body", "null", "no multibody given");
+  std::vector<ShapeId> ids;
+  if (body->getBaseCollider()) ids.push_back(addObject(body->getBaseCollider(), nullptr, body, -1, options));
+  for (int i = 0; i < body->getNumLinks(); ++i)
+    if (body->getLinkCollider(i)) ids.push_back(addObject(body->getLinkCollider(i), nullptr, body, i, options));
+  return ids;
+}
+
+void Coupler::remove(const btCollisionObject* object) {
+  for (size_t i = 0; i < links_.size(); ++i)
+    if (links_[i].object == object) {
+      scene_.removeShape(links_[i].shape);
+      links_.erase(links_.begin() + (long)i);
+      return;
+    }
+}
+
+ShapeId Coupler::shapeOf(const btCollisionObject* object) const {
+  for (const Link& l : links_)
+    if (l.object == object) return l.shape;
+  throw InvalidArgument("Coupler::shapeOf object", "not coupled", "this collision object was never added");
+}
+
+void Coupler::setUserTickCallback(std::function<void(float)> callback) { userCallback_ = std::move(callback); }
+
+void Coupler::tick(float dt) {
+  applyLinkForces(-1.f);
+  // 1. shapes take the bodies' poses and velocities after Bullet's step
+  for (const Link& l : links_) {
+    const btTransform& t = l.object->getWorldTransform();
+    btVector3 v(0, 0, 0), w(0, 0, 0);
+    if (l.rigid) {
+      v = l.rigid->getLinearVelocity();
+      w = l.rigid->getAngularVelocity();
+    } else if (l.multi) {
+      multiBodyLinkVelocity(l.multi, l.link, t, v, w);
+    }
+    const btQuaternion q = t.getRotation();
+    scene_.setShapeState(l.shape, {{toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}},
+                                   toVec(v), toVec(w)});
+  }
+  // 2. the tissue advances over the tick with its own substeps
+  scene_.step(dt);
+  // 3. the momentum the grid gave each shape goes back to its body
+  for (Link& l : links_) {
+    if (!l.dynamic) continue;
+    const ShapeImpulse J = scene_.shapeImpulse(l.shape);
+    if (l.rigid) {
+      l.rigid->applyCentralImpulse(toBt(J.linear));
+      l.rigid->applyTorqueImpulse(toBt(J.angular));
+      l.rigid->activate();
+    } else if (l.multi) {
+      // a multibody takes the impulse as a force over the next tick (added in preTick)
+      l.force = toBt(J.linear) / dt;
+      l.torque = toBt(J.angular) / dt;
+      l.multi->wakeUp();
+    }
+  }
+  if (userCallback_) userCallback_(dt);
+}
+
+}  // namespace mpm::bullet

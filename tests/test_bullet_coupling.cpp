@@ -1,0 +1,146 @@
+// Two-way coupling through Bullet: bodies in a btDiscreteDynamicsWorld or a
+// btMultiBodyDynamicsWorld (the user keeps calling stepSimulation) push on the tissue, and
+// the grid's momentum comes back to them as impulses.
+#include <gtest/gtest.h>
+
+#include <btBulletDynamicsCommon.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "mpm/scene.h"
+#include "mpm_bullet/coupler.h"
+
+namespace mpm {
+namespace {
+
+enum class WorldType { Discrete, MultiBody };
+
+/// A Bullet world of either type with a static ground plane y = 0.
+struct BulletWorld {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  std::unique_ptr<btSequentialImpulseConstraintSolver> solver;
+  std::unique_ptr<btDiscreteDynamicsWorld> world;
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btDefaultMotionState>> states;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  btRigidBody* ground = nullptr;
+
+  explicit BulletWorld(WorldType type) {
+    if (type == WorldType::MultiBody) {
+      auto* mbSolver = new btMultiBodyConstraintSolver;
+      solver.reset(mbSolver);
+      world = std::make_unique<btMultiBodyDynamicsWorld>(&dispatcher, &broadphase, mbSolver, &config);
+    } else {
+      solver = std::make_unique<btSequentialImpulseConstraintSolver>();
+      world = std::make_unique<btDiscreteDynamicsWorld>(&dispatcher, &broadphase, solver.get(), &config);
+    }
+    world->setGravity(btVector3(0, -9.81f, 0));
+    ground = addBody(new btStaticPlaneShape(btVector3(0, 1, 0), 0), 0.f, btVector3(0, 0, 0));
+  }
+  ~BulletWorld() {
+    for (auto& b : bodies) world->removeRigidBody(b.get());
+  }
+  btRigidBody* addBody(btCollisionShape* shape, float mass, const btVector3& at) {
+    shapes.emplace_back(shape);
+    btVector3 inertia(0, 0, 0);
+    if (mass > 0.f) shape->calculateLocalInertia(mass, inertia);
+    states.emplace_back(new btDefaultMotionState(btTransform(btQuaternion::getIdentity(), at)));
+    bodies.emplace_back(new btRigidBody(mass, states.back().get(), shape, inertia));
+    world->addRigidBody(bodies.back().get());
+    return bodies.back().get();
+  }
+};
+
+SceneSettings tissueScene() {
+  SceneSettings s;
+  s.domain.lower = {-0.25f, -0.1f, -0.25f};
+  s.domain.upper = {0.25f, 0.4f, 0.25f};
+  s.dx = 0.02f;
+  s.gravity = {0.f, -9.81f, 0.f};
+  return s;
+}
+
+ParticleObjectDesc slab() {
+  ParticleObjectDesc d;
+  d.center = {0.f, 0.05f + 0.002f, 0.f};
+  d.halfExtents = {0.15f, 0.05f, 0.15f};
+  d.material.model = MaterialModel::NeoHookeanDecoupled;
+  d.material.youngsModulus = 2e5f;
+  d.material.poissonRatio = 0.3f;
+  d.material.density = 1000.f;
+  return d;
+}
+
+class BulletCoupling : public ::testing::TestWithParam<WorldType> {};
+
+// A rigid box resting on a soft slab that lies on the Bullet ground: averaged over time,
+// the coupling holds the box up with m g and the box does not sink into the tissue.
+TEST_P(BulletCoupling, RestingBoxFeelsItsWeight) {
+  BulletWorld bw(GetParam());
+  Scene scene(tissueScene());
+  const ParticleObjectId tissue = scene.addParticleObject(slab());
+  const float mass = 2.f, h = 0.03f;
+  btRigidBody* box = bw.addBody(new btBoxShape(btVector3(0.05f, h, 0.05f)), mass, btVector3(0, 0.104f + h + 0.005f, 0));
+  bullet::Coupler coupler(bw.world.get(), scene);
+  bullet::CouplingOptions opts;
+  opts.contact.friction = 0.5f;
+  coupler.addRigidBody(bw.ground);
+  const ShapeId boxShape = coupler.addRigidBody(box, opts);
+  double impulse = 0, time = 0;
+  coupler.setUserTickCallback([&](float dt) {
+    if (scene.time() > 0.4) {
+      impulse += scene.shapeImpulse(boxShape).linear.y;
+      time += dt;
+    }
+  });
+  for (int f = 0; f < 48; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);  // 0.8 s
+  ASSERT_GT(time, 0.3);
+  EXPECT_NEAR(impulse / time, mass * 9.81, 0.02 * mass * 9.81) << "time-averaged coupling force [N]";
+  std::vector<Vec3f> x;
+  scene.readPositions(tissue, x);
+  float surface = 0.f;
+  for (const Vec3f& p : x)
+    if (std::fabs(p.x) < 0.04f && std::fabs(p.z) < 0.04f) surface = std::fmax(surface, p.y);
+  const float bottom = (float)box->getCenterOfMassPosition().y() - h;
+  EXPECT_GT(bottom - surface, -0.5f * 0.02f) << "penetration below half a cell";
+  EXPECT_LT(std::fabs(box->getLinearVelocity().y()), 0.05f) << "the box has come to rest";
+}
+
+// Light, equal and heavy boxes: all settle (no oscillation growing from the coupling),
+// and the heavier sinks deeper.
+TEST_P(BulletCoupling, LightAndHeavyBoxesSettleAndHeavierSinksDeeper) {
+  std::vector<float> rest;
+  for (float mass : {0.02f, 2.f, 20.f}) {
+    BulletWorld bw(GetParam());
+    Scene scene(tissueScene());
+    scene.addParticleObject(slab());
+    const float h = 0.03f;
+    btRigidBody* box = bw.addBody(new btBoxShape(btVector3(0.05f, h, 0.05f)), mass, btVector3(0, 0.104f + h + 0.005f, 0));
+    bullet::Coupler coupler(bw.world.get(), scene);
+    coupler.addRigidBody(bw.ground);
+    coupler.addRigidBody(box);
+    float maxLateSpeed = 0.f;
+    for (int f = 0; f < 48; ++f) {
+      bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
+      if (f >= 36) maxLateSpeed = std::fmax(maxLateSpeed, (float)box->getLinearVelocity().length());
+    }
+    EXPECT_LT(maxLateSpeed, 0.05f) << "mass " << mass << " kg still moving in the last 0.2 s";
+    rest.push_back((float)box->getCenterOfMassPosition().y());
+  }
+  EXPECT_GT(rest[0], rest[1]);
+  EXPECT_GT(rest[1], rest[2]);
+}
+
+INSTANTIATE_TEST_SUITE_P(WorldTypes, BulletCoupling, ::testing::Values(WorldType::Discrete, WorldType::MultiBody),
+                         [](const auto& info) { return info.param == WorldType::Discrete ? "Discrete" : "MultiBody"; });
+
+}  // namespace
+}  // namespace mpm
