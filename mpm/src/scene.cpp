@@ -119,17 +119,26 @@ class SceneImpl {
       throw InvalidArgument("ParticleObjectDesc.particleSpacing", validate::show(h),
                             "must not exceed the cell size dx = " + validate::show(settings.dx) +
                                 " (fewer than one particle per cell leaves holes in the grid)");
-    const Vec3f half = d.primitive == PrimitiveType::Box
-                           ? d.halfExtents
-                           : Vec3f{d.radius, d.radius, d.radius};
+    // lattice over the object's bounds, relative to its centre
+    Vec3f lo, hi;
+    if (d.primitive == PrimitiveType::Box) {
+      lo = -d.halfExtents;
+      hi = d.halfExtents;
+    } else if (d.primitive == PrimitiveType::Sphere) {
+      lo = {-d.radius, -d.radius, -d.radius};
+      hi = {d.radius, d.radius, d.radius};
+    } else {
+      lo = d.mesh->lower;
+      hi = d.mesh->upper();
+    }
     int n[3];
     for (int a = 0; a < 3; ++a) {
-      n[a] = (int)std::lround(2.f * half[a] / h);
+      n[a] = (int)std::lround((hi[a] - lo[a]) / h);
       if (n[a] < 1)
         throw InvalidArgument(d.primitive == PrimitiveType::Box ? "ParticleObjectDesc.halfExtents"
                                                                 : "ParticleObjectDesc.radius",
-                              validate::show(half[a]), "is smaller than half the particle spacing " +
-                                                           validate::show(h));
+                              validate::show(0.5f * (hi[a] - lo[a])),
+                              "is smaller than half the particle spacing " + validate::show(h));
     }
     // the slot the new object will take (not claimed until every check has passed)
     uint32_t slot = 0;
@@ -143,9 +152,12 @@ class SceneImpl {
     for (int i = 0; i < n[0]; ++i)
       for (int j = 0; j < n[1]; ++j)
         for (int k = 0; k < n[2]; ++k) {
-          const Vec3f r{(i + 0.5f) * h - 0.5f * n[0] * h, (j + 0.5f) * h - 0.5f * n[1] * h,
-                        (k + 0.5f) * h - 0.5f * n[2] * h};
+          // lattice centred in the bounds, so a box of whole spacings is filled exactly
+          const Vec3f r{0.5f * (lo.x + hi.x) + (i + 0.5f - 0.5f * n[0]) * h,
+                        0.5f * (lo.y + hi.y) + (j + 0.5f - 0.5f * n[1]) * h,
+                        0.5f * (lo.z + hi.z) + (k + 0.5f - 0.5f * n[2]) * h};
           if (d.primitive == PrimitiveType::Sphere && dot(r, r) > d.radius * d.radius) continue;
+          if (d.primitive == PrimitiveType::Mesh && d.mesh->sample(r) >= 0.f) continue;
           const Vec3f x = d.center + r;
           bool inside = geo.stencilInside(x);
           for (int a = 0; a < 3 && inside; ++a) {
@@ -169,7 +181,8 @@ class SceneImpl {
           add.local.push_back((uint32_t)add.x.size() - 1);
         }
     if (add.size() == 0)
-      throw InvalidArgument("ParticleObjectDesc.radius", validate::show(d.radius),
+      throw InvalidArgument(d.primitive == PrimitiveType::Mesh ? "ParticleObjectDesc.mesh" : "ParticleObjectDesc.radius",
+                            d.primitive == PrimitiveType::Mesh ? "grid" : validate::show(d.radius),
                             "holds no particle at spacing " + validate::show(h));
 
     if (slot == objects.size()) objects.emplace_back();

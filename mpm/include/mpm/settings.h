@@ -3,8 +3,10 @@
 /// Scene (see validate.h for the rules; every violation names the field and the value).
 #include <cstdint>
 #include <limits>
+#include <memory>
 
 #include "mpm/math.h"
+#include "mpm/sdf_grid.h"
 
 namespace mpm {
 
@@ -64,7 +66,11 @@ struct Material {
 };
 
 /// Geometry a particle object is sampled from.
-enum class PrimitiveType { Box, Sphere };
+enum class PrimitiveType {
+  Box,     ///< halfExtents about center
+  Sphere,  ///< radius about center
+  Mesh     ///< the inside of a closed mesh, given as its signed distance grid `mesh`
+};
 
 /// Description of a body of material points.
 struct ParticleObjectDesc {
@@ -72,6 +78,10 @@ struct ParticleObjectDesc {
   Vec3f center{0.f, 0.f, 0.f};         ///< [m]
   Vec3f halfExtents{0.1f, 0.1f, 0.1f};  ///< box half sizes [m] (Box)
   float radius = 0.1f;                  ///< [m] (Sphere)
+  /// (Mesh) signed distance grid of a watertight mesh, in a frame whose origin is placed
+  /// at `center` (see buildSignedDistanceGrid). A grid whose sign is unreliable (mesh not
+  /// watertight) is refused: inside is not defined.
+  std::shared_ptr<const SignedDistanceGrid> mesh;
   /// Particles per grid cell along each axis (2 gives the usual 8 per cell). Ignored when
   /// particleSpacing > 0.
   int particlesPerCellAxis = 2;

@@ -78,6 +78,13 @@ void particleObjectDesc(const ParticleObjectDesc& d) {
   finite("ParticleObjectDesc.center", d.center);
   if (d.primitive == PrimitiveType::Box) positive("ParticleObjectDesc.halfExtents", d.halfExtents);
   if (d.primitive == PrimitiveType::Sphere) positive("ParticleObjectDesc.radius", d.radius);
+  if (d.primitive == PrimitiveType::Mesh) {
+    if (!d.mesh || d.mesh->values.empty())
+      throw InvalidArgument("ParticleObjectDesc.mesh", "empty", "a Mesh object needs a signed distance grid");
+    if (!d.mesh->signReliable)
+      throw InvalidArgument("ParticleObjectDesc.mesh", "not watertight",
+                            "cannot be filled with particles: inside is undefined (" + d.mesh->signWarning + ")");
+  }
   atLeast("ParticleObjectDesc.particlesPerCellAxis", d.particlesPerCellAxis, 1);
   finite("ParticleObjectDesc.particleSpacing", d.particleSpacing);
   if (d.particleSpacing < 0.f)
