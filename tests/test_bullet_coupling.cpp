@@ -111,11 +111,14 @@ TEST_P(BulletCoupling, RestingBoxFeelsItsWeight) {
     if (std::fabs(p.x) < 0.04f && std::fabs(p.z) < 0.04f) surface = std::fmax(surface, p.y);
   const float bottom = (float)box->getCenterOfMassPosition().y() - h;
   EXPECT_GT(bottom - surface, -0.5f * 0.02f) << "penetration below half a cell";
+  EXPECT_LT(bottom - surface, 0.5f * 0.02f) << "the box rests on the tissue, not on a cushion of grid";
   EXPECT_LT(std::fabs(box->getLinearVelocity().y()), 0.05f) << "the box has come to rest";
 }
 
-// Light, equal and heavy boxes: all settle (no oscillation growing from the coupling),
-// and the heavier sinks deeper.
+// Light, equal and heavy boxes. A box no heavier than the tissue under it settles: the
+// coupling must not make a light body oscillate. The heavy box rocks on the undamped
+// elastic slab like a mass on a spring (period about 0.2 s), which is physical; its
+// oscillation must not grow. The heavier the box, the deeper it sinks.
 TEST_P(BulletCoupling, LightAndHeavyBoxesSettleAndHeavierSinksDeeper) {
   std::vector<float> rest;
   for (float mass : {0.02f, 2.f, 20.f}) {
@@ -127,12 +130,16 @@ TEST_P(BulletCoupling, LightAndHeavyBoxesSettleAndHeavierSinksDeeper) {
     bullet::Coupler coupler(bw.world.get(), scene);
     coupler.addRigidBody(bw.ground);
     coupler.addRigidBody(box);
-    float maxLateSpeed = 0.f;
+    float earlySpeed = 0.f, lateSpeed = 0.f;  // largest speeds in 0.4-0.6 s and 0.6-0.8 s
     for (int f = 0; f < 48; ++f) {
       bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
-      if (f >= 36) maxLateSpeed = std::fmax(maxLateSpeed, (float)box->getLinearVelocity().length());
+      const float speed = (float)box->getLinearVelocity().length();
+      if (f >= 24 && f < 36) earlySpeed = std::fmax(earlySpeed, speed);
+      if (f >= 36) lateSpeed = std::fmax(lateSpeed, speed);
     }
-    EXPECT_LT(maxLateSpeed, 0.05f) << "mass " << mass << " kg still moving in the last 0.2 s";
+    if (mass <= 9.f)  // the slab weighs 9 kg
+      EXPECT_LT(lateSpeed, 0.05f) << "mass " << mass << " kg still moving in the last 0.2 s";
+    EXPECT_LT(lateSpeed, 1.1f * earlySpeed + 0.01f) << "mass " << mass << " kg: oscillation grows";
     rest.push_back((float)box->getCenterOfMassPosition().y());
   }
   EXPECT_GT(rest[0], rest[1]);

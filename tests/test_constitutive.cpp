@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/constitutive.h"
+#include "test_paths.h"
 
 namespace mpm {
 namespace {
@@ -93,9 +94,7 @@ TEST(FixedCorotated, SmallStrainIsLinearElasticity) {
 // NEO HOOKE, mu = 1007 Pa, K = 50001.333 Pa): F = diag(stretch, lat, lat) must give zero
 // lateral Cauchy stress and the tabulated nominal axial stress.
 TEST(NeoHookeanDecoupled, UniaxialMatchesReferenceCurve) {
-  const char* dir = std::getenv("MPM_REFERENCE_DIR");
-  ASSERT_NE(dir, nullptr) << "MPM_REFERENCE_DIR is set by CTest";
-  std::ifstream in(std::string(dir) + "/neo_hookean_uniaxial.csv");
+  std::ifstream in(test::referencePath("neo_hookean_uniaxial.csv"));
   ASSERT_TRUE(in.good());
   const float mu = 1007.f, bulk = 50001.333f;
   std::string line;

@@ -116,6 +116,7 @@ TEST(ShapeContact, RestingBoxIsHeldByItsWeight) {
     if (std::fabs(p.x) < 0.04f && std::fabs(p.z) < 0.04f) surface = std::fmax(surface, p.y);
   const float bottom = scene.shapeState(id).pose.position.y - 0.03f;
   EXPECT_GT(bottom - surface, -0.5f * 0.02f) << "box bottom " << bottom << " tissue top " << surface;
+  EXPECT_LT(bottom - surface, 0.5f * 0.02f) << "box bottom " << bottom << " tissue top " << surface;
 }
 
 // Zero gravity, no walls: a dynamic sphere thrown at a free soft block. Total momentum of

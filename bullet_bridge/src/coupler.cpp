@@ -23,12 +23,12 @@ namespace {
 Vec3f toVec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
 btVector3 toBt(Vec3f v) { return {v.x, v.y, v.z}; }
 
-void postTick(btDynamicsWorld* world, btScalar dt) {
+void preTick(btDynamicsWorld* world, btScalar dt) {
   static_cast<Coupler*>(world->getWorldUserInfo())->tick((float)dt);
 }
 
-void preTick(btDynamicsWorld* world, btScalar) {
-  static_cast<Coupler*>(world->getWorldUserInfo())->applyLinkForces(+1.f);
+void postTick(btDynamicsWorld* world, btScalar dt) {
+  static_cast<Coupler*>(world->getWorldUserInfo())->finishTick((float)dt);
 }
 
 /// Adds (sign +1) or takes back (sign -1) a multibody link's coupling force.
@@ -72,11 +72,12 @@ Coupler::~Coupler() {
   world_->setInternalTickCallback(nullptr, nullptr, true);
 }
 
-void Coupler::applyLinkForces(float sign) {
+void Coupler::finishTick(float dt) {
   // Bullet clears multibody forces only when stepSimulation returns, not between its
-  // internal ticks: each tick's force is added before the tick and taken back after it
+  // internal ticks: the coupling force added before this tick is taken back after it
   for (Link& l : links_)
-    if (l.multi && l.dynamic) addLinkForce(l.multi, l.link, sign * l.force, sign * l.torque);
+    if (l.multi && l.dynamic) addLinkForce(l.multi, l.link, -l.force, -l.torque);
+  if (userCallback_) userCallback_(dt);
 }
 
 ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
@@ -97,6 +98,7 @@ ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMult
                  invI.z() > 0 ? 1.f / (float)invI.z() : 1e30f};
     d.linearVelocity = toVec(rigid->getLinearVelocity());
     d.angularVelocity = toVec(rigid->getAngularVelocity());
+    d.gravity = toVec(rigid->getGravity());
   } else if (multi) {
     const float m = link < 0 ? (float)multi->getBaseMass() : (float)multi->getLink(link).m_mass;
     const btVector3 I = link < 0 ? multi->getBaseInertia() : multi->getLink(link).m_inertiaLocal;
@@ -104,6 +106,7 @@ ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMult
       dynamic = true;
       d.mass = m;
       d.inertia = toVec(I);
+      d.gravity = toVec(world_->getGravity());
     }
   }
   const ShapeId id = scene_.addShape(d);
@@ -143,7 +146,6 @@ ShapeId Coupler::shapeOf(const btCollisionObject* object) const {
 void Coupler::setUserTickCallback(std::function<void(float)> callback) { userCallback_ = std::move(callback); }
 
 void Coupler::tick(float dt) {
-  applyLinkForces(-1.f);
   // 1. shapes take the bodies' poses and velocities after Bullet's step
   for (const Link& l : links_) {
     const btTransform& t = l.object->getWorldTransform();
@@ -169,13 +171,13 @@ void Coupler::tick(float dt) {
       l.rigid->applyTorqueImpulse(toBt(J.angular));
       l.rigid->activate();
     } else if (l.multi) {
-      // a multibody takes the impulse as a force over the next tick (added in preTick)
+      // a multibody takes the impulse as a force over this tick
       l.force = toBt(J.linear) / dt;
       l.torque = toBt(J.angular) / dt;
+      addLinkForce(l.multi, l.link, l.force, l.torque);
       l.multi->wakeUp();
     }
   }
-  if (userCallback_) userCallback_(dt);
 }
 
 }  // namespace mpm::bullet

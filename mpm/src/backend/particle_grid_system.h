@@ -62,10 +62,12 @@ struct ZeroNodes {
   MPM_HD void operator()(size_t n) const {
     nodes[n].mass = 0.f;
     nodes[n].mv = Vec3f{0.f, 0.f, 0.f};
+    nodes[n].mx = Vec3f{0.f, 0.f, 0.f};
   }
 };
 
 /// P2G of particle p into `nodes` (the global grid or a block tile).
+template <bool kCentroid>
 struct P2G {
   ParticleView P;
   GridGeometry geo;
@@ -73,7 +75,7 @@ struct P2G {
   float dt;
   template <class Nodes>
   MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-    if (geo.stencilInside(P.x[p])) mlsP2G(p, P, geo, nodes, materials, dt);
+    if (geo.stencilInside(P.x[p])) mlsP2G<kCentroid>(p, P, geo, nodes, materials, dt);
   }
 };
 
@@ -224,7 +226,11 @@ class ParticleGridSystem final : public SimBackend {
     timings.sort += seconds(t0);
 
     t0 = Clock::now();
-    exec_.particleToGrid(bins_, kernels::P2G{P, geo_, materials_.data(), s.dt});
+    // a scene without shapes does not pay for the material centroid contact needs
+    if (parts_.size())
+      exec_.particleToGrid(bins_, kernels::P2G<true>{P, geo_, materials_.data(), s.dt});
+    else
+      exec_.particleToGrid(bins_, kernels::P2G<false>{P, geo_, materials_.data(), s.dt});
     timings.p2g += seconds(t0);
 
     t0 = Clock::now();

@@ -18,6 +18,10 @@ constexpr int kBlockMask = kBlockSize - 1;
 struct GridNode {
   float mass;
   Vec3f mv;  ///< momentum [kg m/s]; velocity [m/s] after gridUpdate
+  /// sum of w m x_p: where the node's material is (m x-bar). Accumulated only when the
+  /// scene has shapes; contact uses it to tell which side of a thin shape the material
+  /// is on.
+  Vec3f mx;
 };
 
 /// Geometry of the grid, shared by every kernel.

@@ -8,17 +8,25 @@
 //
 // Cost, n triangles and N = dims[0] dims[1] dims[2] samples:
 //   - hierarchy: O(n log^2 n) to build (median splits, plus each node's boundary chain);
-//   - distance: O(log n) triangles per sample on average; the search starts from the
-//     previous sample's nearest triangle, so most of the tree is pruned at once;
-//   - sign: a node whose box does not contain p contributes the solid angle of a fan that
-//     closes its boundary (exact, not an approximation: the node's triangles plus the fan
-//     form a closed surface inside the box, whose winding number about p is 0). A closed
-//     node costs nothing, an open one O(boundary edges) ~ O(sqrt(triangles)), so one
-//     winding number costs about O(sqrt(n) log n) instead of O(n). For a watertight mesh
-//     w is piecewise constant, so a sample further than one cell from the surface copies
-//     the sign of the previous sample on its row and only samples near the surface (and
-//     the first of each row) evaluate w.
-// Measured: the 1280-triangle icosphere at 70^3 samples builds in ~0.1 s on one core.
+//   - distance: a best-first descent that starts from the previous sample's nearest
+//     triangle (one cell away, so the first bound is already tight) and prunes nodes by
+//     their box and by a slab along their mean normal; leaves reject triangles by the
+//     distance to their plane before the exact test. Measured ~30 nodes and ~15 exact
+//     triangle tests per sample on the 1280-triangle icosphere, whose inside, where every
+//     face is nearly equally far, is the hard case;
+//   - sign: a node whose box or bounding sphere does not contain p contributes the solid
+//     angle of a fan that closes its boundary (exact, not an approximation: the node's
+//     triangles plus the fan form a closed surface inside that convex region, whose
+//     winding number about p is 0). A closed node costs nothing, an open one O(boundary
+//     edges) ~ O(sqrt(triangles)), so one winding number costs O(sqrt(n) log n) solid
+//     angles instead of n (~120 for the icosphere instead of 1280). For a watertight mesh
+//     w is piecewise constant, so a sample farther than one cell from the surface copies
+//     the sign of the previous sample and only samples near the surface evaluate w (9%
+//     of the icosphere's 70^3); an open mesh evaluates w at every sample.
+//   - planes i = const run in parallel under OpenMP; each plane starts afresh, so the
+//     values do not depend on the thread count.
+// Measured on one 2.5 GHz core: the icosphere at 65^3 samples in 0.44 s, a 2048-triangle
+// torus at 64 x 64 x 23 in 0.20 s.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -86,9 +94,10 @@ struct Box3d {
     return e.x >= e.y && e.x >= e.z ? 0 : (e.y >= e.z ? 1 : 2);
   }
   double distanceSquared(Vec3d p) const {
-    const double dx = std::max({lo.x - p.x, 0.0, p.x - hi.x});
-    const double dy = std::max({lo.y - p.y, 0.0, p.y - hi.y});
-    const double dz = std::max({lo.z - p.z, 0.0, p.z - hi.z});
+    // at most one of the two terms per axis is positive
+    const double dx = std::max(lo.x - p.x, 0.0) + std::max(p.x - hi.x, 0.0);
+    const double dy = std::max(lo.y - p.y, 0.0) + std::max(p.y - hi.y, 0.0);
+    const double dz = std::max(lo.z - p.z, 0.0) + std::max(p.z - hi.z, 0.0);
     return dx * dx + dy * dy + dz * dz;
   }
   bool containsWithSlack(Vec3d p, double slack) const {
@@ -97,39 +106,75 @@ struct Box3d {
   }
 };
 
-/// Closest point to p on triangle abc (Ericson, Real-Time Collision Detection, 5.1.5):
-/// classify p against the Voronoi regions of the vertices, then of the edges, else the face.
-Vec3d closestPointOnTriangle(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
-  const Vec3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3d bp = p - b;
-  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + (d1 / (d1 - d3)) * ab;
-  const Vec3d cp = p - c;
-  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + (d2 / (d2 - d6)) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
-  const double denom = va + vb + vc;
-  if (!(denom > 0)) {
-    // degenerate (zero-area) triangle that slipped past the edge tests: nearest of its edges
-    auto onSegment = [&](Vec3d s, Vec3d e) {
-      const Vec3d d = e - s;
-      const double len2 = dot(d, d);
-      const double t = len2 > 0 ? std::clamp(dot(p - s, d) / len2, 0.0, 1.0) : 0.0;
-      return s + t * d;
-    };
-    const Vec3d q[3] = {onSegment(a, b), onSegment(b, c), onSegment(c, a)};
-    const double e[3] = {dot(p - q[0], p - q[0]), dot(p - q[1], p - q[1]), dot(p - q[2], p - q[2])};
-    return q[e[0] <= e[1] && e[0] <= e[2] ? 0 : (e[1] <= e[2] ? 1 : 2)];
+/// A triangle with what the distance query reuses: edges, their dot products, unit normal.
+struct Triangle {
+  Vec3d a, b, c;
+  Vec3d ab, ac, unitNormal;  // unitNormal = 0 for a degenerate (zero-area) triangle
+  double abab = 0, abac = 0, acac = 0;
+  Triangle() = default;
+  Triangle(Vec3d a_, Vec3d b_, Vec3d c_) : a(a_), b(b_), c(c_), ab(b_ - a_), ac(c_ - a_) {
+    abab = dot(ab, ab);
+    abac = dot(ab, ac);
+    acac = dot(ac, ac);
+    const Vec3d normal = cross(ab, ac);
+    const double length = norm(normal);
+    unitNormal = length > 0 ? (1.0 / length) * normal : Vec3d{};
   }
-  const double v = vb / denom, w = vc / denom;
-  return a + v * ab + w * ac;
+};
+
+Vec3d nearestOnSegment(Vec3d p, Vec3d s, Vec3d e) {
+  const Vec3d d = e - s;
+  const double len2 = dot(d, d);
+  const double t = len2 > 0 ? std::clamp(dot(p - s, d) / len2, 0.0, 1.0) : 0.0;
+  return s + t * d;
+}
+
+/// Squared distance from p to the triangle: Ericson's closest point on a triangle
+/// (Real-Time Collision Detection, 5.1.5), classifying p against the Voronoi regions of
+/// the vertices, then the edges, else the face. All six of Ericson's dot products follow
+/// from ab.ap and ac.ap and the triangle's precomputed ab.ab, ab.ac, ac.ac; in the face
+/// region the distance is the one to the plane.
+double triangleDistanceSquared(Vec3d p, const Triangle& t) {
+  const Vec3d ap = p - t.a;
+  const double d1 = dot(t.ab, ap), d2 = dot(t.ac, ap);
+  if (d1 <= 0 && d2 <= 0) return dot(ap, ap);  // vertex a
+  const double d3 = d1 - t.abab, d4 = d2 - t.abac;  // ab.bp, ac.bp
+  if (d3 >= 0 && d4 <= d3) {  // vertex b
+    const Vec3d bp = p - t.b;
+    return dot(bp, bp);
+  }
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {  // edge ab
+    const Vec3d q = ap - (d1 / (d1 - d3)) * t.ab;
+    return dot(q, q);
+  }
+  const double d5 = d1 - t.abac, d6 = d2 - t.acac;  // ab.cp, ac.cp
+  if (d6 >= 0 && d5 <= d6) {  // vertex c
+    const Vec3d cp = p - t.c;
+    return dot(cp, cp);
+  }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {  // edge ac
+    const Vec3d q = ap - (d2 / (d2 - d6)) * t.ac;
+    return dot(q, q);
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {  // edge bc
+    const Vec3d q = (p - t.b) - ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (t.c - t.b);
+    return dot(q, q);
+  }
+  if (va + vb + vc > 0 && t.unitNormal.x * t.unitNormal.x + t.unitNormal.y * t.unitNormal.y +
+                                  t.unitNormal.z * t.unitNormal.z > 0) {
+    const double plane = dot(ap, t.unitNormal);  // face
+    return plane * plane;
+  }
+  // a degenerate triangle that slipped past the edge tests: nearest of its edges
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& edge : {std::make_pair(t.a, t.b), std::make_pair(t.b, t.c), std::make_pair(t.c, t.a)}) {
+    const Vec3d q = p - nearestOnSegment(p, edge.first, edge.second);
+    best = std::min(best, dot(q, q));
+  }
+  return best;
 }
 
 /// Signed solid angle of triangle abc seen from p (van Oosterom & Strackee 1983), positive
@@ -143,7 +188,7 @@ double solidAngle(Vec3d p, Vec3d a, Vec3d b, Vec3d c) {
 }
 
 /// Bounding volume hierarchy over a mesh's triangles, answering nearest-triangle and
-/// winding-number queries. Every node covers a contiguous range of `order`.
+/// winding-number queries. Every node covers a contiguous range of triangles in node order.
 class TriangleBvh {
  public:
   TriangleBvh(const std::vector<Vec3d>& vertices, const std::vector<uint32_t>& indices)
@@ -159,40 +204,59 @@ class TriangleBvh {
     }
     nodes_.reserve(2 * (n / kLeafTriangles + 1));
     build(0, n, centroids, boxes);
-    // corners in node order, so a leaf reads one contiguous block
-    corners_.resize(n);
+    // triangles in node order, so a leaf reads one contiguous block
+    triangles_.resize(n);
+    // a degenerate triangle's zero normal gives a plane bound of 0, which never rejects
     for (uint32_t s = 0; s < n; ++s)
-      corners_[s] = {vertex(order_[s], 0), vertex(order_[s], 1), vertex(order_[s], 2)};
-    for (Node& node : nodes_) buildClosure(node);
+      triangles_[s] = Triangle(vertex(order_[s], 0), vertex(order_[s], 1), vertex(order_[s], 2));
+    for (Node& node : nodes_) {
+      buildClosure(node);
+      boundingSphere(node);
+      boundingSlab(node);
+    }
   }
 
   /// Squared distance from p to the mesh. `slot` (a position in node order) is the nearest
   /// triangle of a previous query, used as the first bound; it returns this query's nearest.
   double distanceSquared(Vec3d p, uint32_t& slot) const {
     double best = std::numeric_limits<double>::infinity();
-    if (slot < corners_.size()) best = triangleDistanceSquared(p, slot);
-    uint32_t stack[128];
+    if (slot < triangles_.size()) best = triangleDistanceSquared(p, slot);
+    // (node, squared distance to its box) pairs: a node's bound is computed once, by its parent
+    struct Pending {
+      uint32_t node;
+      double bound;
+    };
+    Pending stack[128];
     int top = 0;
-    stack[top++] = 0;
+    stack[top++] = {0, lowerBound(nodes_[0], p)};
     while (top > 0) {
-      const Node& node = nodes_[stack[--top]];
-      if (node.box.distanceSquared(p) >= best) continue;
+      const Pending pending = stack[--top];
+      if (pending.bound >= best) continue;
+      const Node& node = nodes_[pending.node];
       if (node.left == kNoNode) {
         for (uint32_t s = node.first; s < node.first + node.count; ++s) {
+          // the distance to the triangle's plane is a lower bound, and nearly exact for
+          // the many almost equidistant faces seen from deep inside a round mesh
+          const Triangle& t = triangles_[s];
+          const double plane = dot(p - t.a, t.unitNormal);
+          if (plane * plane >= best) continue;
           const double d2 = triangleDistanceSquared(p, s);
-          if (d2 < best) { best = d2; slot = s; }
+          if (d2 < best) {
+            best = d2;
+            slot = s;
+          }
         }
         continue;
       }
-      const double dl = nodes_[node.left].box.distanceSquared(p);
-      const double dr = nodes_[node.right].box.distanceSquared(p);
+      const double dl = lowerBound(nodes_[node.left], p);
+      const double dr = lowerBound(nodes_[node.right], p);
       // nearer child on top of the stack: it usually tightens the bound for the other
       if (dl <= dr) {
-        if (dr < best) stack[top++] = node.right;
-        if (dl < best) stack[top++] = node.left;
+        if (dr < best) stack[top++] = {node.right, dr};
+        if (dl < best) stack[top++] = {node.left, dl};
       } else {
-        if (dl < best) stack[top++] = node.left;
-        if (dr < best) stack[top++] = node.right;
+        if (dl < best) stack[top++] = {node.left, dl};
+        if (dr < best) stack[top++] = {node.right, dr};
       }
     }
     return best;
@@ -207,11 +271,15 @@ class TriangleBvh {
     stack[top++] = 0;
     while (top > 0) {
       const Node& node = nodes_[stack[--top]];
-      const bool outside = !node.box.containsWithSlack(p, boxSlack_);
+      // p outside the box or outside the bounding sphere of the node's vertices: outside a
+      // convex region that holds the triangles and the closing fan
+      const Vec3d fromCentre = p - node.sphereCentre;
+      const bool outside = !node.box.containsWithSlack(p, boxSlack_) ||
+                           dot(fromCentre, fromCentre) > node.sphereRadiusSquared;
       if (outside && node.closureCount < node.count) {
         // the node's triangles and the fan closing their boundary make a closed surface
-        // inside the box, whose winding number about p is 0: the triangles' solid angle is
-        // minus the fan's. Fan triangles (apex, b, a) close each boundary edge a->b.
+        // inside that region, whose winding number about p is 0: the triangles' solid
+        // angle is minus the fan's. Fan triangles (apex, b, a) close each boundary edge a->b.
         if (node.closureCount == 0) continue;
         const Vec3d apex = vertices_[closure_[node.closureFirst][0]];
         for (uint32_t e = node.closureFirst; e < node.closureFirst + node.closureCount; ++e)
@@ -220,7 +288,7 @@ class TriangleBvh {
       }
       if (outside || node.left == kNoNode) {
         for (uint32_t s = node.first; s < node.first + node.count; ++s)
-          sum += solidAngle(p, corners_[s][0], corners_[s][1], corners_[s][2]);
+          sum += solidAngle(p, triangles_[s].a, triangles_[s].b, triangles_[s].c);
         continue;
       }
       stack[top++] = node.left;
@@ -232,17 +300,21 @@ class TriangleBvh {
  private:
   struct Node {
     Box3d box;
-    uint32_t first = 0, count = 0;             // triangles order_[first, first + count)
+    Vec3d sphereCentre;  // a sphere holding every vertex of the node's triangles
+    double sphereRadiusSquared = 0;
+    // the triangles lie in the slab slabLow <= slabNormal . x <= slabHigh; for a patch of
+    // a curved surface this is far tighter than the box (seen from deep inside a round mesh
+    // every face is nearly equally far and only such a bound prunes them)
+    Vec3d slabNormal;
+    double slabLow = 0, slabHigh = 0;
+    uint32_t first = 0, count = 0;             // triangles [first, first + count) in node order
     uint32_t left = kNoNode, right = kNoNode;  // children, kNoNode for a leaf
     uint32_t closureFirst = 0, closureCount = 0;  // boundary edges in closure_
   };
-
   Vec3d vertex(uint32_t triangle, int corner) const { return vertices_[indices_[3 * triangle + corner]]; }
 
   double triangleDistanceSquared(Vec3d p, uint32_t slot) const {
-    const std::array<Vec3d, 3>& t = corners_[slot];
-    const Vec3d d = p - closestPointOnTriangle(p, t[0], t[1], t[2]);
-    return dot(d, d);
+    return mpm::triangleDistanceSquared(p, triangles_[slot]);
   }
 
   uint32_t build(uint32_t first, uint32_t count, const std::vector<Vec3d>& centroids,
@@ -271,6 +343,50 @@ class TriangleBvh {
     return index;
   }
 
+  // Squared distance from p to the node's box or its slab, whichever is farther: no
+  // triangle of the node is nearer.
+  static double lowerBound(const Node& node, Vec3d p) {
+    const double along = dot(p, node.slabNormal);
+    const double slab = std::max(node.slabLow - along, 0.0) + std::max(along - node.slabHigh, 0.0);
+    return std::max(node.box.distanceSquared(p), slab * slab);
+  }
+
+  // Along the area-weighted mean normal of the node's triangles (none, i.e. a zero normal
+  // and an empty bound, when they cancel out).
+  void boundingSlab(Node& node) const {
+    Vec3d sum;
+    for (uint32_t s = node.first; s < node.first + node.count; ++s) {
+      const Triangle& t = triangles_[s];
+      sum = sum + cross(t.b - t.a, t.c - t.a);
+    }
+    const double length = norm(sum);
+    if (!(length > 0)) return;
+    node.slabNormal = (1.0 / length) * sum;
+    node.slabLow = std::numeric_limits<double>::infinity();
+    node.slabHigh = -std::numeric_limits<double>::infinity();
+    for (uint32_t s = node.first; s < node.first + node.count; ++s)
+      for (const Vec3d& v : {triangles_[s].a, triangles_[s].b, triangles_[s].c}) {
+        node.slabLow = std::min(node.slabLow, dot(v, node.slabNormal));
+        node.slabHigh = std::max(node.slabHigh, dot(v, node.slabNormal));
+      }
+    // rounding of the dot products: pad like the box
+    node.slabLow -= 2 * boxSlack_;
+    node.slabHigh += 2 * boxSlack_;
+  }
+
+  // Centred on the box, through the farthest vertex, padded like the box.
+  void boundingSphere(Node& node) const {
+    node.sphereCentre = 0.5 * (node.box.lo + node.box.hi);
+    double radius2 = 0;
+    for (uint32_t s = node.first; s < node.first + node.count; ++s)
+      for (const Vec3d& v : {triangles_[s].a, triangles_[s].b, triangles_[s].c}) {
+        const Vec3d d = v - node.sphereCentre;
+        radius2 = std::max(radius2, dot(d, d));
+      }
+    const double radius = std::sqrt(radius2) + 2 * boxSlack_;
+    node.sphereRadiusSquared = radius * radius;
+  }
+
   // The node's boundary as a chain: every directed edge of its triangles, an edge a->b
   // cancelling one b->a. What remains (with multiplicity) closes into loops.
   void buildClosure(Node& node) {
@@ -292,8 +408,8 @@ class TriangleBvh {
       size_t j = i;
       for (; j < edges.size() && edges[j].first == edges[i].first; ++j) net += edges[j].second;
       const uint32_t lo = uint32_t(edges[i].first >> 32), hi = uint32_t(edges[i].first & 0xffffffffu);
-      for (int m = 0; m < std::abs(net); ++m) closure_.push_back(net > 0 ? std::array<uint32_t, 2>{lo, hi}
-                                                                         : std::array<uint32_t, 2>{hi, lo});
+      for (int m = 0; m < std::abs(net); ++m)
+        closure_.push_back(net > 0 ? std::array<uint32_t, 2>{lo, hi} : std::array<uint32_t, 2>{hi, lo});
       i = j;
     }
     node.closureCount = static_cast<uint32_t>(closure_.size()) - node.closureFirst;
@@ -307,7 +423,7 @@ class TriangleBvh {
   const std::vector<Vec3d>& vertices_;
   const std::vector<uint32_t>& indices_;
   std::vector<uint32_t> order_;
-  std::vector<std::array<Vec3d, 3>> corners_;
+  std::vector<Triangle> triangles_;
   std::vector<Node> nodes_;
   std::vector<std::array<uint32_t, 2>> closure_;
   double boxSlack_ = 0;
@@ -419,6 +535,9 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
   if (paddingCells < 1)
     throw InvalidArgument("paddingCells", std::to_string(paddingCells),
                           "must be >= 1 (the grid's border must lie outside the mesh)");
+  if (paddingCells > kMaxDim / 2)
+    throw InvalidArgument("paddingCells", std::to_string(paddingCells),
+                          "must be <= " + std::to_string(kMaxDim / 2));
 
   std::vector<Vec3d> vertices(mesh.vertices.size());
   for (size_t i = 0; i < vertices.size(); ++i) vertices[i] = toDouble(mesh.vertices[i]);
@@ -431,7 +550,9 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
   double samples = 1;
   for (int a = 0; a < 3; ++a) {
     const double extent = bounds.hi[a] - bounds.lo[a];
-    const double cells = std::ceil(extent / cellSize) + 2.0 * paddingCells;
+    // a tolerance of 1e-4 cell keeps float rounding (0.2f / 0.005f = 40.0000014) from
+    // adding a whole cell
+    const double cells = std::ceil(extent / cellSize - 1e-4) + 2.0 * paddingCells;
     if (cells + 1 > kMaxDim)
       throw InvalidArgument("cellSize", show(cellSize),
                             "gives " + std::to_string((long long)cells + 1) + " samples along axis " +
@@ -458,16 +579,26 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
   grid.values.resize(static_cast<size_t>(samples));
   const double h = cellSize;
   const Vec3d lower = toDouble(grid.lower);
-  uint32_t nearest = std::numeric_limits<uint32_t>::max();
-  size_t out = 0;
-  for (int i = 0; i < grid.dims[0]; ++i)
+  const bool watertight = report.watertight;
+  // Planes i = const are independent of each other (each starts without a nearest-triangle
+  // hint and without a sign to copy), so the result is the same whatever the number of
+  // threads and their schedule. Within a plane the rows run back and forth, so every
+  // sample follows a neighbour one cell away.
+#if defined(_OPENMP)
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+  for (int i = 0; i < grid.dims[0]; ++i) {
+    uint32_t nearest = std::numeric_limits<uint32_t>::max();
+    double previous = 0;  // signed value of the previous sample
+    bool hasPrevious = false;
     for (int j = 0; j < grid.dims[1]; ++j) {
-      double previous = 0;  // signed value of the previous sample on this row
-      for (int k = 0; k < grid.dims[2]; ++k, ++out) {
+      float* row = grid.values.data() + (static_cast<size_t>(i) * grid.dims[1] + j) * grid.dims[2];
+      for (int step = 0; step < grid.dims[2]; ++step) {
+        const int k = j % 2 == 0 ? step : grid.dims[2] - 1 - step;
         const Vec3d p = lower + Vec3d{h * i, h * j, h * k};
         const double distance = std::sqrt(bvh.distanceSquared(p, nearest));
         bool inside;
-        if (report.watertight && k > 0 && std::abs(previous) > h * (1.0 + 1e-6)) {
+        if (watertight && hasPrevious && std::abs(previous) > h * (1.0 + 1e-6)) {
           // a closed mesh's winding number only changes across the surface, and the
           // segment from the previous sample (length h) cannot reach it
           inside = previous < 0;
@@ -475,9 +606,11 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
           inside = std::abs(bvh.windingNumber(p)) > 0.5;
         }
         previous = inside ? -distance : distance;
-        grid.values[out] = static_cast<float>(previous);
+        hasPrevious = true;
+        row[k] = static_cast<float>(previous);
       }
     }
+  }
   return grid;
 }
 

@@ -119,12 +119,30 @@ MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
 /// immovable body would take from the node without changing it; pass 1 applies the
 /// contact against the body's updated velocity and records the momentum exchanged.
 /// Returns true if the node touched the part (and `sums`, the part's body's, grew).
-MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, const PartView& part, const BodyView* bodies,
-                            ContactSums& sums, int pass) {
+///
+/// Which side: a node's own signed distance cannot tell which side of a shape thinner than
+/// a cell its material is on (a node on a half-cell plate's mid-plane, or none inside it
+/// at all, would let material through or push it the wrong way). So the node also looks
+/// from where its material is, x-bar = sum w m x_p / m. When the node and its material lie
+/// on opposite sides of the shape (their normals disagree), the node is in contact if it
+/// lies behind the tangent plane seen from x-bar, phi(x-bar) + n(x-bar) . (x - x-bar) <
+/// band, and the normal is the one seen from x-bar. Otherwise the node's own distance
+/// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and
+/// hold material off it.
+MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, const PartView& part,
+                            const BodyView* bodies, ContactSums& sums, int pass) {
   const BodyView& b = bodies[part.body];
   if (pass == 0 && !b.dynamic) return false;
-  Vec3f n;
-  const float phi = part.distance(x, n);
+  Vec3f n, nBar;
+  const float phiNode = part.distance(x, n);
+  const float phiBar = part.distance(xbar, nBar);
+  const bool otherSide = dot(n, nBar) < 0.f;
+  float phi = phiNode;
+  if (otherSide) {
+    const float phiSide = phiBar + dot(nBar, x - xbar);
+    phi = phiSide < phiNode ? phiSide : phiNode;
+    n = nBar;
+  }
   if (phi >= b.band) return false;
   const Vec3f vNew = contactVelocity(v, b.velocityAt(x), n, b);
   const Vec3f dp = mass * (v - vNew);

@@ -11,7 +11,8 @@ namespace mpm {
 
 /// Scatter of one particle to its 27 stencil nodes. `Nodes` is where they live: the
 /// global grid with the backend's accumulate (GPU atomics), or a block's tile on the CPU.
-template <class Nodes>
+/// kCentroid: also accumulate w m x_p (needed by shape contact only).
+template <bool kCentroid, class Nodes>
 MPM_HD void mlsP2G(uint32_t p, const ParticleView& P, const GridGeometry& geo, Nodes& nodes,
                    const MaterialParams* materials, float dt) {
   const float dx = geo.dx;
@@ -26,6 +27,7 @@ MPM_HD void mlsP2G(uint32_t p, const ParticleView& P, const GridGeometry& geo, N
   const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
   const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * Dinv) * tau;
   const Vec3f mv = m * P.v[p];
+  const Vec3f xp = P.x[p];
   // momentum at node offset d: mv + A d, built incrementally along each axis
   const Vec3f d0{-fx.x * dx, -fx.y * dx, -fx.z * dx};
   const Vec3f a0 = mv + affine * d0;
@@ -36,7 +38,10 @@ MPM_HD void mlsP2G(uint32_t p, const ParticleView& P, const GridGeometry& geo, N
       const float wij = w[0][i] * w[1][j];
       for (int k = 0; k < 3; ++k) {
         const float wt = wij * w[2][k];
-        nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * m, wt * (aij + (float)k * az));
+        if constexpr (kCentroid)
+          nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * m, wt * (aij + (float)k * az), (wt * m) * xp);
+        else
+          nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * m, wt * (aij + (float)k * az));
       }
     }
 }
@@ -88,6 +93,13 @@ struct GridNodes {
     Add::add(n.mv.x, mv.x);
     Add::add(n.mv.y, mv.y);
     Add::add(n.mv.z, mv.z);
+  }
+  MPM_HD void add(int i, int j, int k, float m, Vec3f mv, Vec3f mx) const {
+    add(i, j, k, m, mv);
+    GridNode& n = grid.node(i, j, k);
+    Add::add(n.mx.x, mx.x);
+    Add::add(n.mx.y, mx.y);
+    Add::add(n.mx.z, mx.z);
   }
   MPM_HD Vec3f velocity(int i, int j, int k) const { return grid.node(i, j, k).mv; }
 };

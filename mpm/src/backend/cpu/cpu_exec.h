@@ -37,6 +37,12 @@ struct BlockTile {
     n.mass += m;
     n.mv += mv;
   }
+  void add(int i, int j, int k, float m, Vec3f mv, Vec3f mx) {
+    GridNode& n = nodes[index(i, j, k)];
+    n.mass += m;
+    n.mv += mv;
+    n.mx += mx;
+  }
   Vec3f velocity(int i, int j, int k) const { return nodes[index(i, j, k)].mv; }
 
   void setBlock(const GridGeometry& geo, uint32_t block) {
@@ -150,11 +156,12 @@ struct CpuExec {
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
-            for (GridNode& n : tile.nodes) n = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}};
+            for (GridNode& n : tile.nodes) n = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}};
             for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
             tile.forEachGridNode(grid, [](const GridNode& t, GridNode& g) {
               g.mass += t.mass;
               g.mv += t.mv;
+              g.mx += t.mx;
             });
           }
         }
@@ -218,7 +225,7 @@ struct CpuExec {
             const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
                                                          (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
                                                          (float)(o[2] + (n & kBlockMask))};
-            contactNodePart(x, node.mass, node.mv, parts[p], bodies, bodySums, pass);
+            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, parts[p], bodies, bodySums, pass);
           }
         }
         touched_[slot] = any;

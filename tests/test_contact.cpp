@@ -1,0 +1,412 @@
+// Grid contact with rigid shapes (DESIGN section 5) against closed forms: Coulomb sliding
+// on an incline, a bonded grasper lifting tissue while a sticky one lets go, tissue held
+// by a plate half a cell thick, and the drag coefficient of a sphere ploughing through
+// tissue, with the impulse the shape records balancing the tissue's momentum. Each case
+// runs on the CPU and, where a device exists, on CUDA.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "mpm/scene.h"
+
+namespace mpm {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kG = 9.81f;
+
+class Contact : public ::testing::TestWithParam<Backend> {
+ protected:
+  void SetUp() override {
+    if (GetParam() == Backend::Cuda && !cudaDeviceAvailable()) GTEST_SKIP() << "no CUDA device: GPU case skipped";
+  }
+};
+
+/// Rotation by `angle` [rad] about the world z axis.
+Quat aboutZ(double angle) {
+  Quat q;
+  q.w = (float)std::cos(0.5 * angle);
+  q.z = (float)std::sin(0.5 * angle);
+  return q;
+}
+
+Geometry box(Vec3f halfExtents) {
+  Geometry g;
+  g.type = GeometryType::Box;
+  g.halfExtents = halfExtents;
+  return g;
+}
+
+/// Mass, centre of mass and momentum of several particle objects taken as one body.
+struct BodySum {
+  double mass = 0, com[3] = {0, 0, 0}, momentum[3] = {0, 0, 0};
+};
+BodySum sumOf(const Scene& scene, const std::vector<ParticleObjectId>& ids) {
+  BodySum b;
+  for (const ParticleObjectId id : ids) {
+    const ObjectSummary s = scene.summary(id);
+    b.mass += s.mass;
+    for (int a = 0; a < 3; ++a) {
+      b.com[a] += s.mass * s.centerOfMass[a];
+      b.momentum[a] += s.momentum[a];
+    }
+  }
+  for (int a = 0; a < 3; ++a) b.com[a] /= b.mass;
+  return b;
+}
+
+// ---------------------------------------------------------------------------------------
+// 1. Incline. A static box tilted by theta about z: its top face descends along +x, with
+// outward normal n = (sin, cos, 0) and downhill direction s = (cos, -sin, 0). The API
+// samples axis-aligned boxes only, so the tissue is a parallelogram of vertical columns
+// one particle wide, each starting half a particle spacing above the face: the whole
+// bottom touches from the start. Neighbouring columns share grid nodes and move as one
+// block. Closed form: a = g (sin theta - mu cos theta) if tan theta > mu, else rest.
+
+struct InclineResult {
+  double acceleration = 0;  ///< least-squares slope of the CoM velocity along s [m/s^2]
+  double maxSpeed = 0;      ///< largest |CoM velocity along s| over the window [m/s]
+  double travel = 0;        ///< CoM displacement along s over the window [m]
+};
+
+InclineResult runIncline(Backend backend, double theta, float mu) {
+  const float dx = 0.01f, h = 0.5f * dx;  // 8 particles per cell
+  SceneSettings st;
+  st.backend = backend;
+  st.domain.lower = {-0.35f, 0.f, -0.1f};
+  st.domain.upper = {0.35f, 0.5f, 0.1f};
+  st.dx = dx;
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+
+  const double c = std::cos(theta), s = std::sin(theta);
+  const double x0 = -0.2, y0 = 0.35;  // a point of the ramp's top face
+  ShapeDesc ramp;
+  ramp.parts = {box({0.6f, 0.05f, 0.15f})};
+  ramp.pose.rotation = aboutZ(-theta);
+  ramp.pose.position = {(float)(x0 - 0.05 * s), (float)(y0 - 0.05 * c), 0.f};
+  ramp.contact.mode = ContactMode::Frictional;
+  ramp.contact.friction = mu;
+  scene.addShape(ramp);
+
+  const int columns = 16, layers = 8;  // 8 cm along x, 4 cm tall, 5 cm deep
+  std::vector<ParticleObjectId> ids;
+  for (int i = 0; i < columns; ++i) {
+    ParticleObjectDesc d;
+    const double x = x0 + (i - 0.5 * (columns - 1)) * h;
+    const double face = y0 - std::tan(theta) * (x - x0);
+    d.halfExtents = {0.5f * h, 0.5f * layers * h, 0.025f};
+    d.center = {(float)x, (float)(face + 0.5 * h / c + 0.5 * (layers - 1) * h), 0.f};
+    d.material.model = MaterialModel::FixedCorotated;
+    d.material.youngsModulus = 2e5f;
+    d.material.poissonRatio = 0.3f;
+    d.material.density = 1000.f;
+    ids.push_back(scene.addParticleObject(d));
+  }
+  auto along = [&](const double v[3]) { return v[0] * c - v[1] * s; };
+
+  // settle 50 ms, then fit v_s(t) = v0 + a t over 200 ms
+  const float frame = 0.01f;
+  for (int f = 0; f < 5; ++f) scene.step(frame);
+  const double start = along(sumOf(scene, ids).com);
+  const int frames = 20;
+  double sT = 0, sV = 0, sTT = 0, sTV = 0;
+  InclineResult r;
+  for (int f = 1; f <= frames; ++f) {
+    scene.step(frame);
+    const BodySum b = sumOf(scene, ids);
+    const double v[3] = {b.momentum[0] / b.mass, b.momentum[1] / b.mass, b.momentum[2] / b.mass};
+    const double t = f * frame, vs = along(v);
+    sT += t, sV += vs, sTT += t * t, sTV += t * vs;
+    r.maxSpeed = std::fmax(r.maxSpeed, std::fabs(vs));
+    r.travel = along(b.com) - start;
+  }
+  r.acceleration = (frames * sTV - sT * sV) / (frames * sTT - sT * sT);
+  return r;
+}
+
+// tan 25 deg = 0.466 > mu = 0.25: a = 9.81 (0.4226 - 0.25 * 0.9063) = 1.923 m/s^2
+TEST_P(Contact, InclineSlidesWithCoulombAcceleration) {
+  const double theta = 25.0 * kPi / 180.0;
+  const float mu = 0.25f;
+  const InclineResult r = runIncline(GetParam(), theta, mu);
+  const double expected = kG * (std::sin(theta) - mu * std::cos(theta));
+  std::printf("incline 25 deg, mu %.2f: a = %.4f m/s^2, closed form %.4f\n", mu, r.acceleration, expected);
+  EXPECT_NEAR(r.acceleration, expected, 0.05 * expected);
+}
+
+// tan 25 deg = 0.466 < mu = 0.7: at rest. Sliding at even a tenth of the closed-form
+// acceleration above would reach 0.05 m/s within the window.
+TEST_P(Contact, InclineHoldsBelowTheFrictionAngle) {
+  const double theta = 25.0 * kPi / 180.0;
+  const InclineResult r = runIncline(GetParam(), theta, 0.7f);
+  std::printf("incline 25 deg, mu 0.70: max |v_s| = %.5f m/s, travel %.2e m\n", r.maxSpeed, r.travel);
+  EXPECT_LT(r.maxSpeed, 0.01);
+  EXPECT_LT(std::fabs(r.travel), 1e-3);
+}
+
+// ---------------------------------------------------------------------------------------
+// 2. Grasp. A block of tissue rests on a separating floor; a kinematic box touches its top
+// (bottom face a tenth of a cell below the tissue's nominal top, contact band one cell)
+// and is then pulled up at 0.2 m/s for 0.25 s. Bonded contact holds every node within the
+// band to the box, so the tissue is lifted with it; sticky contact acts only on nodes
+// approaching the box, so the box leaves the tissue behind.
+
+struct GraspResult {
+  double jawRise = 0, tissueRise = 0;  ///< [m]
+};
+
+GraspResult runGrasp(Backend backend, ContactMode mode) {
+  const float dx = 0.01f;
+  SceneSettings st;
+  st.backend = backend;
+  st.domain.lower = {-0.15f, 0.f, -0.15f};
+  st.domain.upper = {0.15f, 0.3f, 0.15f};
+  st.domain.wallMode = WallMode::Separate;
+  st.dx = dx;
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc d;
+  const float bottom = 2 * dx, half = 0.02f;  // on the floor wall (two cells thick)
+  d.center = {0.f, bottom + half, 0.f};
+  d.halfExtents = {0.04f, half, 0.04f};
+  d.material.model = MaterialModel::NeoHookeanDecoupled;
+  d.material.youngsModulus = 2e5f;
+  d.material.poissonRatio = 0.3f;
+  d.material.density = 1000.f;
+  const ParticleObjectId tissue = scene.addParticleObject(d);
+
+  ShapeDesc jaw;
+  jaw.parts = {box({0.05f, 0.01f, 0.05f})};
+  jaw.pose.position = {0.f, bottom + 2 * half - 0.1f * dx + 0.01f, 0.f};
+  jaw.contact.mode = mode;
+  jaw.contact.band = dx;
+  const ShapeId id = scene.addShape(jaw);
+
+  const float frame = 0.01f;
+  for (int f = 0; f < 5; ++f) scene.step(frame);  // settle, jaw at rest
+  const double tissue0 = scene.summary(tissue).centerOfMass[1];
+  ShapeState s = scene.shapeState(id);
+  const double jaw0 = s.pose.position.y;
+  s.linearVelocity = {0.f, 0.2f, 0.f};
+  scene.setShapeState(id, s);
+  for (int f = 0; f < 25; ++f) scene.step(frame);
+  GraspResult r;
+  r.jawRise = scene.shapeState(id).pose.position.y - jaw0;
+  r.tissueRise = scene.summary(tissue).centerOfMass[1] - tissue0;
+  return r;
+}
+
+TEST_P(Contact, BondedJawLiftsTissue) {
+  const GraspResult r = runGrasp(GetParam(), ContactMode::Bonded);
+  std::printf("bonded jaw: rise %.5f m, tissue CoM rise %.5f m (%.1f%%)\n", r.jawRise, r.tissueRise,
+              100 * r.tissueRise / r.jawRise);
+  EXPECT_NEAR(r.jawRise, 0.05, 1e-4) << "a kinematic shape moves on with its velocity";
+  EXPECT_GT(r.tissueRise, 0.8 * r.jawRise);
+}
+
+TEST_P(Contact, StickyJawLetsGo) {
+  const GraspResult r = runGrasp(GetParam(), ContactMode::Sticky);
+  std::printf("sticky jaw: rise %.5f m, tissue CoM rise %.5f m (%.1f%%)\n", r.jawRise, r.tissueRise,
+              100 * r.tissueRise / r.jawRise);
+  EXPECT_NEAR(r.jawRise, 0.05, 1e-4);
+  EXPECT_LT(std::fabs(r.tissueRise), 0.1 * r.jawRise);
+}
+
+// ---------------------------------------------------------------------------------------
+// 3. A plate half a cell thick (box half-height dx / 4, default band 0) under a block of
+// tissue, no gravity: the tissue is thrown at it at 3 m/s, or driven 2 cm into it at 1 m/s
+// by a kinematic pusher that then holds still. No particle may end up on the far side,
+// and the plate must actually hold the tissue: the thrown block is stopped (its vertical
+// momentum ends >= 0) and no block is crushed below half the thickness it has room for
+// (4 cm thrown, the pusher-plate gap pushed). The plate's centre is placed at several
+// offsets from the grid's node layers: a plate thinner than a cell holds one node layer or
+// none. The same plate two cells thick is the control.
+
+struct PlateResult {
+  int beyond = 0;           ///< particles past the plate's far face at the end
+  int everBeyond = 0;       ///< particles that were past it at any frame
+  double plateImpulse = 0;  ///< vertical impulse on the plate over the run [N s]
+  double momentum0 = 0, momentum = 0;  ///< tissue vertical momentum, start and end [kg m/s]
+  double thickness = 0;     ///< tissue extent in y at the end [m]
+  double room = 0;          ///< extent it has room for [m]
+};
+
+PlateResult runPlate(Backend backend, float offsetCells, float halfCells, bool pushed) {
+  const float dx = 0.01f;
+  SceneSettings st;
+  st.backend = backend;
+  st.domain.lower = {-0.15f, 0.f, -0.15f};
+  st.domain.upper = {0.15f, 0.3f, 0.15f};
+  st.dx = dx;
+  st.gravity = {0.f, 0.f, 0.f};
+  Scene scene(st);
+  const float plateY = 0.1f + offsetCells * dx, plateHalf = halfCells * dx;  // node layer at y = 0.1
+  ShapeDesc plate;
+  plate.parts = {box({0.1f, plateHalf, 0.1f})};
+  plate.pose.position = {0.f, plateY, 0.f};
+  plate.contact.mode = ContactMode::Frictional;
+  plate.contact.friction = 0.3f;
+  const ShapeId plateId = scene.addShape(plate);
+
+  ParticleObjectDesc d;
+  const float half = 0.02f, bottom = plateY + plateHalf + 0.25f * dx;
+  d.center = {0.f, bottom + half, 0.f};
+  d.halfExtents = {0.03f, half, 0.03f};
+  d.material.model = MaterialModel::FixedCorotated;
+  d.material.youngsModulus = 2e5f;
+  d.material.poissonRatio = 0.3f;
+  if (!pushed) d.velocity = {0.f, -3.f, 0.f};
+  const ParticleObjectId tissue = scene.addParticleObject(d);
+
+  const float frame = 0.002f, pushSpeed = 1.f, pushDepth = 0.02f;
+  const int pushFrames = (int)std::lround(pushDepth / pushSpeed / frame);
+  PlateResult r;
+  r.room = 2 * half;
+  ShapeId pusher{};
+  if (pushed) {
+    ShapeDesc p;
+    p.parts = {box({0.05f, 0.01f, 0.05f})};
+    p.pose.position = {0.f, bottom + 2 * half + 0.01f + 0.1f * dx, 0.f};
+    p.linearVelocity = {0.f, -pushSpeed, 0.f};
+    p.contact.mode = ContactMode::Sticky;
+    pusher = scene.addShape(p);
+    r.room = (p.pose.position.y - 0.01f - pushDepth) - (plateY + plateHalf);
+  }
+  const float farFace = plateY - plateHalf;
+  r.momentum0 = scene.summary(tissue).momentum[1];
+  std::vector<Vec3f> x;
+  std::vector<char> seen;
+  const int frames = pushed ? pushFrames + 10 : 25;  // pushed 20 ms then held 20 ms; thrown 50 ms
+  for (int f = 0; f < frames; ++f) {
+    if (pushed && f == pushFrames) {
+      ShapeState s = scene.shapeState(pusher);
+      s.linearVelocity = {0.f, 0.f, 0.f};
+      scene.setShapeState(pusher, s);
+    }
+    scene.step(frame);
+    r.plateImpulse += scene.shapeImpulse(plateId).linear.y;
+    scene.readPositions(tissue, x);
+    seen.resize(x.size(), 0);
+    r.beyond = 0;
+    for (size_t i = 0; i < x.size(); ++i)
+      if (x[i].y < farFace) {
+        ++r.beyond;
+        if (!seen[i]) seen[i] = 1, ++r.everBeyond;
+      }
+  }
+  float lo = 1e9f, hi = -1e9f;
+  for (const Vec3f& p : x) lo = std::fmin(lo, p.y), hi = std::fmax(hi, p.y);
+  r.thickness = hi - lo;
+  r.momentum = scene.summary(tissue).momentum[1];
+  std::printf("%s, plate half-height %.2f dx, centre %.2f dx above a node layer: %d particles beyond "
+              "(%d ever); plate impulse %.4f N s; tissue momentum %.4f -> %.4f kg m/s; thickness %.4f m "
+              "of %.4f\n",
+              pushed ? "pushed 1 m/s" : "thrown 3 m/s", halfCells, offsetCells, r.beyond, r.everBeyond,
+              r.plateImpulse, r.momentum0, r.momentum, r.thickness, r.room);
+  return r;
+}
+
+void expectPlateHolds(const PlateResult& r, bool pushed, float offsetCells) {
+  char where[64];
+  std::snprintf(where, sizeof where, "plate centre %.2f dx above a node layer", offsetCells);
+  EXPECT_EQ(r.beyond, 0) << "particles on the far side, " << where;
+  if (!pushed) {
+    EXPECT_GE(r.momentum, 0.0) << "the thrown tissue was not stopped, " << where;
+  }
+  EXPECT_GT(r.thickness, 0.5 * r.room) << "tissue crushed onto the plate, " << where;
+}
+
+TEST_P(Contact, ThickPlateHoldsTissue) {
+  for (bool pushed : {false, true})
+    for (float offset : {0.f, 0.5f}) expectPlateHolds(runPlate(GetParam(), offset, 1.f, pushed), pushed, offset);
+}
+
+TEST_P(Contact, ThinPlateHoldsThrownTissue) {
+  for (float offset : {0.f, 0.25f, 0.5f, 0.75f})
+    expectPlateHolds(runPlate(GetParam(), offset, 0.25f, false), false, offset);
+}
+
+TEST_P(Contact, ThinPlateHoldsPushedTissue) {
+  for (float offset : {0.f, 0.25f, 0.5f, 0.75f})
+    expectPlateHolds(runPlate(GetParam(), offset, 0.25f, true), true, offset);
+}
+
+// ---------------------------------------------------------------------------------------
+// 4. Drag. A kinematic sphere (radius 1.5 cm) ploughs at 4 m/s along the axis of a free
+// 6 cm block (no gravity, no walls) from 5 cm before it to 5 cm past it. Frictionless
+// contact with c_d = 1 removes only the normal approach, and the sphere slips through;
+// c_d = 0 also removes the tangential slip of approaching nodes and drags the block along,
+// so it gains more momentum. The shape is the only momentum source, so the impulse it
+// records, summed over the advances, is minus the tissue's momentum change.
+
+struct DragResult {
+  double tissueMomentum[3] = {0, 0, 0};  ///< change over the run [kg m/s]
+  double impulse[3] = {0, 0, 0};         ///< sum of ShapeImpulse::linear [N s]
+};
+
+DragResult runDrag(Backend backend, float drag) {
+  SceneSettings st;
+  st.backend = backend;
+  st.domain.lower = {-0.25f, -0.25f, -0.25f};
+  st.domain.upper = {0.25f, 0.25f, 0.25f};
+  st.domain.walls = false;
+  st.dx = 0.01f;
+  st.gravity = {0.f, 0.f, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc d;
+  d.halfExtents = {0.03f, 0.03f, 0.03f};
+  d.material.model = MaterialModel::FixedCorotated;
+  d.material.youngsModulus = 2e4f;
+  d.material.poissonRatio = 0.3f;
+  const ParticleObjectId tissue = scene.addParticleObject(d);
+  ShapeDesc ball;
+  Geometry g;
+  g.type = GeometryType::Sphere;
+  g.radius = 0.015f;
+  ball.parts = {g};
+  ball.pose.position = {-0.05f, 0.f, 0.f};
+  ball.linearVelocity = {4.f, 0.f, 0.f};
+  ball.contact.mode = ContactMode::Frictional;
+  ball.contact.friction = 0.f;
+  ball.contact.drag = drag;
+  const ShapeId id = scene.addShape(ball);
+  const ObjectSummary s0 = scene.summary(tissue);
+  DragResult r;
+  for (int f = 0; f < 4; ++f) {  // 40 ms: the sphere's centre from x = -5 cm to +11 cm
+    scene.step(0.01f);
+    const ShapeImpulse J = scene.shapeImpulse(id);
+    r.impulse[0] += J.linear.x, r.impulse[1] += J.linear.y, r.impulse[2] += J.linear.z;
+  }
+  const ObjectSummary s1 = scene.summary(tissue);
+  for (int a = 0; a < 3; ++a) r.tissueMomentum[a] = s1.momentum[a] - s0.momentum[a];
+  std::vector<Vec3f> x;
+  scene.readPositions(tissue, x);
+  float lo = 1e9f, hi = -1e9f;
+  for (const Vec3f& p : x) lo = std::fmin(lo, p.x), hi = std::fmax(hi, p.x);
+  std::printf("drag c_d = %.0f: tissue dp (%.5f, %.5f, %.5f), shape impulse (%.5f, %.5f, %.5f) N s; tissue x in "
+              "[%.3f, %.3f], sphere centre at %.3f\n",
+              drag, r.tissueMomentum[0], r.tissueMomentum[1], r.tissueMomentum[2], r.impulse[0], r.impulse[1],
+              r.impulse[2], lo, hi, scene.shapeState(id).pose.position.x);
+  return r;
+}
+
+TEST_P(Contact, DragZeroCarriesTissueAndImpulseBalancesMomentum) {
+  const DragResult slip = runDrag(GetParam(), 1.f), stick = runDrag(GetParam(), 0.f);
+  EXPECT_GT(stick.tissueMomentum[0], slip.tissueMomentum[0]);
+  for (const DragResult* r : {&slip, &stick}) {
+    const double p = std::fabs(r->tissueMomentum[0]);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(r->impulse[a], -r->tissueMomentum[a], 0.01 * p) << "axis " << a;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, Contact, ::testing::Values(Backend::Cpu, Backend::Cuda),
+                         [](const ::testing::TestParamInfo<Backend>& info) {
+                           return info.param == Backend::Cpu ? std::string("Cpu") : std::string("Cuda");
+                         });
+
+}  // namespace
+}  // namespace mpm
