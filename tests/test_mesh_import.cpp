@@ -25,7 +25,7 @@
 #include "mpm/sdf_grid.h"
 #include "mpm_bullet/mesh_import.h"
 
-namespace mpm_bullet {
+namespace mpm::bullet {
 namespace {
 
 using mpm::TriangleMesh;
@@ -397,4 +397,4 @@ TEST(BulletShapes, RejectBadMeshes) {
 }
 
 }  // namespace
-}  // namespace mpm_bullet
+}  // namespace mpm::bullet

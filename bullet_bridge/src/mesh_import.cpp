@@ -22,7 +22,7 @@
 
 #include "mpm/error.h"
 
-namespace mpm_bullet {
+namespace mpm::bullet {
 namespace {
 
 std::string show(float v) {
@@ -228,4 +228,4 @@ std::unique_ptr<btCollisionShape> makeGImpactMeshShape(const mpm::TriangleMesh& 
   return shape;
 }
 
-}  // namespace mpm_bullet
+}  // namespace mpm::bullet

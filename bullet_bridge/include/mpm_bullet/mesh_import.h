@@ -9,7 +9,7 @@
 
 #include "mpm/sdf_grid.h"
 
-namespace mpm_bullet {
+namespace mpm::bullet {
 
 /// Reads every triangle of a mesh file: OBJ, STL (ASCII or binary), PLY, glTF 2.0 (.gltf
 /// with embedded or side-by-side buffers, .glb), and whatever else assimp reads. Polygons
@@ -49,4 +49,4 @@ std::unique_ptr<btCollisionShape> makeConvexHullShape(const mpm::TriangleMesh& m
 std::unique_ptr<btCollisionShape> makeGImpactMeshShape(const mpm::TriangleMesh& mesh,
                                                        float margin = kDefaultMeshMargin);
 
-}  // namespace mpm_bullet
+}  // namespace mpm::bullet
