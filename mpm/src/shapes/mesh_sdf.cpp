@@ -41,8 +41,11 @@
 
 #include "mpm/error.h"
 #include "mpm/sdf_grid.h"
+#include "core/validate.h"
 
 namespace mpm {
+using validate::show;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -67,17 +70,6 @@ Vec3d cross(Vec3d a, Vec3d b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x *
 double norm(Vec3d a) { return std::sqrt(dot(a, a)); }
 Vec3d toDouble(Vec3f v) { return {v.x, v.y, v.z}; }
 
-std::string show(float v) {
-  // the shortest text that reads back as the same float: 0.45f prints as "0.45"
-  for (int digits = 6; digits <= 9; ++digits) {
-    std::ostringstream s;
-    s.precision(digits);
-    s << v;
-    if (std::strtof(s.str().c_str(), nullptr) == v || !std::isfinite(v)) return s.str();
-  }
-  return std::to_string(v);
-}
-std::string show(Vec3f v) { return "(" + show(v.x) + ", " + show(v.y) + ", " + show(v.z) + ")"; }
 
 struct Box3d {
   Vec3d lo{+std::numeric_limits<double>::infinity(), +std::numeric_limits<double>::infinity(),

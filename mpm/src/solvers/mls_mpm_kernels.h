@@ -9,6 +9,18 @@
 
 namespace mpm {
 
+/// A particle's 3x3x3 quadratic B-spline stencil: lowest node, offset from it (in cells)
+/// and the weights along each axis.
+struct QuadraticStencil {
+  int base[3];
+  Vec3f fx;
+  float w[3][3];
+  MPM_HD QuadraticStencil(const GridGeometry& geo, Vec3f x) {
+    geo.stencilBase(x, base, fx);
+    for (int a = 0; a < 3; ++a) quadraticWeights(fx[a], w[a]);
+  }
+};
+
 /// Scatter of one particle to its 27 stencil nodes. `Nodes` is where they live: the
 /// global grid with the backend's accumulate (GPU atomics), or a block's tile on the CPU.
 /// kCentroid: also accumulate w m x_p (needed by shape contact only).
@@ -17,11 +29,10 @@ MPM_HD void mlsP2G(uint32_t p, const ParticleView& P, const GridGeometry& geo, N
                    const MaterialParams* materials, float dt) {
   const float dx = geo.dx;
   const float Dinv = 4.f * geo.invDx * geo.invDx;
-  int base[3];
-  Vec3f fx;
-  geo.stencilBase(P.x[p], base, fx);
-  float w[3][3];
-  for (int a = 0; a < 3; ++a) quadraticWeights(fx[a], w[a]);
+  const QuadraticStencil st(geo, P.x[p]);
+  const int* base = st.base;
+  const Vec3f fx = st.fx;
+  const float(&w)[3][3] = st.w;
 
   const float m = P.mass[p];
   const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
@@ -53,11 +64,10 @@ MPM_HD bool mlsG2P(uint32_t p, const ParticleView& P, const GridGeometry& geo, c
                    float dt) {
   const float dx = geo.dx;
   const float Dinv = 4.f * geo.invDx * geo.invDx;
-  int base[3];
-  Vec3f fx;
-  geo.stencilBase(P.x[p], base, fx);
-  float w[3][3];
-  for (int a = 0; a < 3; ++a) quadraticWeights(fx[a], w[a]);
+  const QuadraticStencil st(geo, P.x[p]);
+  const int* base = st.base;
+  const Vec3f fx = st.fx;
+  const float(&w)[3][3] = st.w;
 
   // B = sum w v (x_i - x_p)^T, accumulated as sum (w v) i^T dx minus (sum w v) fx^T dx
   Vec3f v{0.f, 0.f, 0.f}, bi{0.f, 0.f, 0.f}, bj{0.f, 0.f, 0.f}, bk{0.f, 0.f, 0.f};
