@@ -4,8 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
+#include <functional>
 #include <future>
+#include <mutex>
 #include <sstream>
+#include <thread>
 
 #include "backend/sim_backend.h"
 #include "core/validate.h"
@@ -48,6 +52,54 @@ Mat3f skew(Vec3f w) {
 }
 
 }  // namespace
+
+/// The one thread that runs a scene's steps. It lives as long as the scene: a new thread per
+/// advance() would also make OpenMP build a new thread team every frame (measured: binning
+/// on 2 threads took 10 ms per frame at 8k particles against 1.4 ms on 1).
+class StepWorker {
+ public:
+  StepWorker() : thread_([this] { loop(); }) {}
+  ~StepWorker() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+  std::future<StepReport> submit(std::function<StepReport()> job) {
+    std::packaged_task<StepReport()> task(std::move(job));
+    std::future<StepReport> result = task.get_future();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      task_ = std::move(task);
+      pending_ = true;
+    }
+    wake_.notify_all();
+    return result;
+  }
+
+ private:
+  void loop() {
+    for (;;) {
+      std::packaged_task<StepReport()> task;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stop_ || pending_; });
+        if (!pending_) return;
+        task = std::move(task_);
+        pending_ = false;
+      }
+      task();  // an exception is stored in the future, rethrown by fetchResults()
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::packaged_task<StepReport()> task_;
+  bool pending_ = false, stop_ = false;
+  std::thread thread_;  // last: starts after the members it uses exist
+};
 
 struct ObjectRecord {
   uint32_t generation = 0;
@@ -342,7 +394,7 @@ class SceneImpl {
     validate::positive("Scene::advance dt", dt);
     const int n = substepCount(dt);
     uploadShapes();
-    pending = std::async(std::launch::async, [this, dt, n] {
+    pending = worker.submit([this, dt, n] {
       StepReport r = run(dt, n);
       downloadShapes();
       return r;
@@ -365,6 +417,7 @@ class SceneImpl {
   float maxParticleSpeed = 0.f;
   double time = 0.0;
   std::future<StepReport> pending;
+  StepWorker worker;  // after everything its jobs touch, so it stops first
 };
 
 Scene::Scene(const SceneSettings& settings) : impl_(std::make_unique<SceneImpl>(settings)) {}
