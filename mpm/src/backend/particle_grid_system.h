@@ -112,6 +112,12 @@ struct PlaceParts {
   MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin); }
 };
 
+struct AccelerateBodies {
+  BodyView* bodies;
+  float dt;
+  MPM_HD void operator()(size_t i) const { accelerateBody(bodies[i], dt); }
+};
+
 struct PredictBodies {
   BodyView* bodies;
   const ContactSums* sums;
@@ -243,6 +249,7 @@ class ParticleGridSystem final : public SimBackend {
       // the contact band of a node reaches one cell beyond the part's own bounds
       exec_.forEach(nParts, kernels::PlaceParts{parts_.data(), bodies_.data(), geo_.dx});
       if (anyDynamic_) {
+        exec_.forEach(nBodies, kernels::AccelerateBodies{bodies_.data(), s.dt});
         exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 0);
         exec_.forEach(nBodies, kernels::PredictBodies{bodies_.data(), stepSums_.data()});
       }

@@ -226,15 +226,21 @@ MPM_HD void predictBodyVelocity(BodyView& b, const ContactSums& s) {
   b.angularVelocity = b.angularVelocity + inverseSymmetric(I) * Vec3f{s.angular[0], s.angular[1], s.angular[2]};
 }
 
+/// Before the contact passes: a dynamic body's gravity for the substep. It must come
+/// before the contact so the contact can take it back; added after, a resting body would
+/// step g dt^2 into the tissue every substep (measured: 3.4 mm/s of steady sinking).
+MPM_HD void accelerateBody(BodyView& b, float dt) {
+  if (b.dynamic) b.linearVelocity += dt * b.gravity;
+}
+
 /// After pass 1: the body's velocity from the momentum it actually received (so total
-/// momentum is conserved exactly), gravity, then its pose advanced by dt.
+/// momentum is conserved exactly), then its pose advanced by dt.
 MPM_HD void finishBodySubstep(BodyView& b, const ContactSums& s, float dt) {
   if (b.dynamic) {
     b.linearVelocity = b.v0 + (1.f / b.mass) * Vec3f{s.impulse[0], s.impulse[1], s.impulse[2]};
     float I[6];
     worldInertia(b, I);
     b.angularVelocity = b.w0 + inverseSymmetric(I) * Vec3f{s.angular[0], s.angular[1], s.angular[2]};
-    b.linearVelocity += dt * b.gravity;
   }
   b.com += dt * b.linearVelocity;
   b.rotation = rotateBy(b.rotation, b.angularVelocity, dt);

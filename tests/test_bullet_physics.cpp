@@ -1,0 +1,677 @@
+// Physics through the Bullet coupling against closed forms: Coulomb sliding of tissue on a
+// tilted static Bullet box, momentum conservation when a Bullet sphere hits free tissue, a
+// Featherstone chain (btMultiBody links) following its links' velocities and resting on
+// tissue with its weight, and Bullet shapes with local scaling and compounds converted to
+// MPM geometry. The coupled cases run in a btDiscreteDynamicsWorld and a
+// btMultiBodyDynamicsWorld where both apply.
+#include <gtest/gtest.h>
+
+#include <btBulletDynamicsCommon.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "mpm/scene.h"
+#include "mpm_bullet/coupler.h"
+#include "mpm_bullet/shape_conversion.h"
+#include "shapes/sdf_primitives.h"
+
+namespace mpm {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr float kG = 9.81f;
+
+enum class WorldType { Discrete, MultiBody };
+
+/// A Bullet world of either type with gravity (0, -g, 0) and no bodies.
+struct BulletWorld {
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher{&config};
+  btDbvtBroadphase broadphase;
+  std::unique_ptr<btSequentialImpulseConstraintSolver> solver;
+  std::unique_ptr<btDiscreteDynamicsWorld> world;
+  btMultiBodyDynamicsWorld* multiWorld = nullptr;  ///< the same world, if it is one
+  std::vector<std::unique_ptr<btCollisionShape>> shapes;
+  std::vector<std::unique_ptr<btDefaultMotionState>> states;
+  std::vector<std::unique_ptr<btRigidBody>> bodies;
+  std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
+  std::vector<std::unique_ptr<btMultiBody>> multiBodies;
+
+  BulletWorld(WorldType type, float g) {
+    if (type == WorldType::MultiBody) {
+      auto* mbSolver = new btMultiBodyConstraintSolver;
+      solver.reset(mbSolver);
+      auto mw = std::make_unique<btMultiBodyDynamicsWorld>(&dispatcher, &broadphase, mbSolver, &config);
+      multiWorld = mw.get();
+      world = std::move(mw);
+    } else {
+      solver = std::make_unique<btSequentialImpulseConstraintSolver>();
+      world = std::make_unique<btDiscreteDynamicsWorld>(&dispatcher, &broadphase, solver.get(), &config);
+    }
+    world->setGravity(btVector3(0, -g, 0));  // before bodies are added: they copy it
+  }
+  ~BulletWorld() {
+    for (auto& b : bodies) world->removeRigidBody(b.get());
+    for (auto& c : colliders) world->removeCollisionObject(c.get());
+    for (auto& m : multiBodies) multiWorld->removeMultiBody(m.get());
+  }
+  btRigidBody* addBody(btCollisionShape* shape, float mass, const btTransform& pose) {
+    shapes.emplace_back(shape);
+    btVector3 inertia(0, 0, 0);
+    if (mass > 0.f) shape->calculateLocalInertia(mass, inertia);
+    states.emplace_back(new btDefaultMotionState(pose));
+    bodies.emplace_back(new btRigidBody(mass, states.back().get(), shape, inertia));
+    world->addRigidBody(bodies.back().get());
+    return bodies.back().get();
+  }
+  btRigidBody* addGround() {  // the plane y = 0
+    return addBody(new btStaticPlaneShape(btVector3(0, 1, 0), 0), 0.f, btTransform::getIdentity());
+  }
+
+  /// A floating-base chain of equal boxes along x (base first), joined by revolute joints
+  /// about z with a gap between neighbours, base centre at `at`. Multibody world only.
+  btMultiBody* addBoxChain(int boxes, const btVector3& half, float gap, float massEach, const btVector3& at) {
+    btBoxShape* box = new btBoxShape(half);
+    shapes.emplace_back(box);
+    btVector3 inertia;
+    box->calculateLocalInertia(massEach, inertia);
+    multiBodies.emplace_back(new btMultiBody(boxes - 1, massEach, inertia, false, false));
+    btMultiBody* mb = multiBodies.back().get();
+    const btVector3 toPivot(half.x() + 0.5f * gap, 0, 0);
+    for (int i = 0; i < boxes - 1; ++i)
+      mb->setupRevolute(i, massEach, inertia, i - 1, btQuaternion::getIdentity(), btVector3(0, 0, 1), toPivot, toPivot,
+                        true);
+    mb->finalizeMultiDof();
+    mb->setBasePos(at);
+    mb->setWorldToBaseRot(btQuaternion::getIdentity());
+    multiWorld->addMultiBody(mb);
+    for (int link = -1; link < boxes - 1; ++link) {
+      colliders.emplace_back(new btMultiBodyLinkCollider(mb, link));
+      btMultiBodyLinkCollider* c = colliders.back().get();
+      c->setCollisionShape(box);
+      world->addCollisionObject(c, btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter);
+      if (link < 0)
+        mb->setBaseCollider(c);
+      else
+        mb->getLink(link).m_collider = c;
+    }
+    btAlignedObjectArray<btQuaternion> scratchRot;
+    btAlignedObjectArray<btVector3> scratchPos;
+    mb->updateCollisionObjectWorldTransforms(scratchRot, scratchPos);
+    return mb;
+  }
+  std::vector<btCollisionObject*> chainColliders(btMultiBody* mb) const {
+    std::vector<btCollisionObject*> out{mb->getBaseCollider()};
+    for (int i = 0; i < mb->getNumLinks(); ++i) out.push_back(mb->getLink(i).m_collider);
+    return out;
+  }
+};
+
+const char* worldName(WorldType t) { return t == WorldType::Discrete ? "discrete" : "multibody"; }
+
+Material softTissue() {
+  Material m;
+  m.model = MaterialModel::NeoHookeanDecoupled;
+  m.youngsModulus = 2e5f;
+  m.poissonRatio = 0.3f;
+  m.density = 1000.f;
+  return m;
+}
+
+/// Mass, centre of mass and momentum of several particle objects taken as one body.
+struct BodySum {
+  double mass = 0, com[3] = {0, 0, 0}, momentum[3] = {0, 0, 0};
+};
+BodySum sumOf(const Scene& scene, const std::vector<ParticleObjectId>& ids) {
+  BodySum b;
+  for (const ParticleObjectId id : ids) {
+    const ObjectSummary s = scene.summary(id);
+    b.mass += s.mass;
+    for (int a = 0; a < 3; ++a) {
+      b.com[a] += s.mass * s.centerOfMass[a];
+      b.momentum[a] += s.momentum[a];
+    }
+  }
+  for (int a = 0; a < 3; ++a) b.com[a] /= b.mass;
+  return b;
+}
+
+class BulletPhysics : public ::testing::TestWithParam<WorldType> {};
+
+// ---------------------------------------------------------------------------------------
+// 1. Incline. The ramp is a static btRigidBody with a btBoxShape tilted by theta about z
+// (top face descending along +x: outward normal n = (sin, cos, 0), downhill s = (cos, -sin,
+// 0)), coupled with friction mu. Bullet's and the scene's gravity are both (0, -g, 0). The
+// tissue is a parallelogram of vertical columns one particle wide, each starting half a
+// particle spacing above the face (the API samples axis-aligned boxes only), as in
+// test_contact. Closed form: a = g (sin theta - mu cos theta) if tan theta > mu, else rest.
+
+struct InclineResult {
+  double acceleration = 0;  ///< (v_s(t2) - v_s(t1)) / (t2 - t1) [m/s^2]
+  double fitted = 0;        ///< least-squares slope of v_s(t) over [t1, t2] [m/s^2]
+  double maxSpeed = 0;      ///< largest |v_s| over [t1, t2] [m/s]
+  double travel = 0;        ///< CoM displacement along s over [t1, t2] [m]
+  double t1 = 0, t2 = 0;    ///< [s]
+};
+
+InclineResult runIncline(WorldType type, double theta, float mu) {
+  BulletWorld bw(type, kG);
+  const float dx = 0.01f, h = 0.5f * dx;  // 8 particles per cell
+  SceneSettings st;
+  st.domain.lower = {-0.35f, 0.f, -0.1f};
+  st.domain.upper = {0.35f, 0.5f, 0.1f};
+  st.dx = dx;
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+
+  const double c = std::cos(theta), s = std::sin(theta);
+  const double x0 = -0.2, y0 = 0.35;  // a point of the ramp's top face
+  const btTransform rampPose(btQuaternion(btVector3(0, 0, 1), (btScalar)-theta),
+                             btVector3((btScalar)(x0 - 0.05 * s), (btScalar)(y0 - 0.05 * c), 0));
+  btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(0.6f, 0.05f, 0.15f)), 0.f, rampPose);
+  bullet::Coupler coupler(bw.world.get(), scene);
+  bullet::CouplingOptions opts;
+  opts.contact.friction = mu;
+  coupler.addRigidBody(ramp, opts);
+
+  const int columns = 16, layers = 8;  // 8 cm along x, 4 cm tall, 5 cm deep
+  std::vector<ParticleObjectId> ids;
+  for (int i = 0; i < columns; ++i) {
+    ParticleObjectDesc d;
+    const double x = x0 + (i - 0.5 * (columns - 1)) * h;
+    const double face = y0 - std::tan(theta) * (x - x0);
+    d.halfExtents = {0.5f * h, 0.5f * layers * h, 0.025f};
+    d.center = {(float)x, (float)(face + 0.5 * h / c + 0.5 * (layers - 1) * h), 0.f};
+    d.material = softTissue();
+    ids.push_back(scene.addParticleObject(d));
+  }
+  auto along = [&](const double v[3]) { return v[0] * c - v[1] * s; };
+  auto slopeSpeed = [&](const BodySum& b) {
+    const double v[3] = {b.momentum[0] / b.mass, b.momentum[1] / b.mass, b.momentum[2] / b.mass};
+    return along(v);
+  };
+
+  // settle 50 ms, then follow v_s(t) over 200 ms, frame by frame
+  const float frame = 1.f / 60;
+  for (int f = 0; f < 3; ++f) bw.world->stepSimulation(frame, 10, 1.f / 240);
+  InclineResult r;
+  BodySum b = sumOf(scene, ids);
+  r.t1 = scene.time();
+  const double v1 = slopeSpeed(b), start = along(b.com);
+  double n = 1, sT = r.t1, sV = v1, sTT = r.t1 * r.t1, sTV = r.t1 * v1, v2 = v1;
+  r.maxSpeed = std::fabs(v1);
+  for (int f = 0; f < 12; ++f) {
+    bw.world->stepSimulation(frame, 10, 1.f / 240);
+    b = sumOf(scene, ids);
+    const double t = scene.time();
+    v2 = slopeSpeed(b);
+    n += 1, sT += t, sV += v2, sTT += t * t, sTV += t * v2;
+    r.maxSpeed = std::fmax(r.maxSpeed, std::fabs(v2));
+    r.travel = along(b.com) - start;
+  }
+  r.t2 = scene.time();
+  r.acceleration = (v2 - v1) / (r.t2 - r.t1);
+  r.fitted = (n * sTV - sT * sV) / (n * sTT - sT * sT);
+  return r;
+}
+
+// tan 25 deg = 0.466 > mu = 0.25: a = 9.81 (0.4226 - 0.25 * 0.9063) = 1.923 m/s^2
+TEST_P(BulletPhysics, TissueSlidesDownTiltedBulletBoxWithCoulombAcceleration) {
+  const double theta = 25.0 * kPi / 180.0;
+  const float mu = 0.25f;
+  const InclineResult r = runIncline(GetParam(), theta, mu);
+  const double expected = kG * (std::sin(theta) - mu * std::cos(theta));
+  std::printf("%s world, incline 25 deg, mu %.2f: a = %.4f m/s^2 from v_s at t = %.3f and %.3f s "
+              "(least squares %.4f), closed form %.4f\n",
+              worldName(GetParam()), mu, r.acceleration, r.t1, r.t2, r.fitted, expected);
+  EXPECT_NEAR(r.acceleration, expected, 0.05 * expected);
+  EXPECT_NEAR(r.fitted, expected, 0.05 * expected);
+}
+
+// tan 25 deg = 0.466 < mu = 0.7: at rest. Sliding at even a tenth of the closed-form
+// acceleration above would reach 0.04 m/s within the window.
+TEST_P(BulletPhysics, TissueHoldsOnTiltedBulletBoxBelowTheFrictionAngle) {
+  const double theta = 25.0 * kPi / 180.0;
+  const InclineResult r = runIncline(GetParam(), theta, 0.7f);
+  std::printf("%s world, incline 25 deg, mu 0.70: max |v_s| = %.5f m/s, travel %.2e m over %.3f-%.3f s\n",
+              worldName(GetParam()), r.maxSpeed, r.travel, r.t1, r.t2);
+  EXPECT_LT(r.maxSpeed, 0.01);
+  EXPECT_LT(std::fabs(r.travel), 1e-3);
+}
+
+// ---------------------------------------------------------------------------------------
+// 2. Zero gravity, no walls: a dynamic Bullet sphere (0.2 kg, 2 m/s, 1 cm off the block's
+// axis) hits a free 6 cm block of tissue (0.216 kg). Nothing else acts, so the total
+// momentum m v (Bullet) + sum m_p v_p (particles) is constant through the collision. The
+// momentum the grid gives the sphere reaches Bullet as an impulse each tick, so the drift
+// is float rounding only; 1% of |p0| is the stated bound.
+
+TEST_P(BulletPhysics, SphereHittingFreeTissueConservesTotalMomentum) {
+  BulletWorld bw(GetParam(), 0.f);
+  SceneSettings st;
+  st.domain.lower = {-0.3f, -0.3f, -0.3f};
+  st.domain.upper = {0.3f, 0.3f, 0.3f};
+  st.domain.walls = false;
+  st.dx = 0.01f;
+  st.gravity = {0.f, 0.f, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc d;
+  d.halfExtents = {0.03f, 0.03f, 0.03f};
+  d.material = softTissue();
+  const ParticleObjectId block = scene.addParticleObject(d);
+
+  const float radius = 0.02f, mass = 0.2f, speed = 2.f;
+  btRigidBody* sphere = bw.addBody(new btSphereShape(radius), mass,
+                                   btTransform(btQuaternion::getIdentity(), btVector3(-0.03f - radius - 0.01f, 0.01f, 0)));
+  sphere->setLinearVelocity(btVector3(speed, 0, 0));
+  bullet::Coupler coupler(bw.world.get(), scene);
+  bullet::CouplingOptions opts;
+  opts.contact.friction = 0.3f;
+  coupler.addRigidBody(sphere, opts);
+
+  auto total = [&](double p[3]) {
+    const ObjectSummary s = scene.summary(block);
+    const btVector3 v = sphere->getLinearVelocity();
+    for (int a = 0; a < 3; ++a) p[a] = mass * v[a] + s.momentum[a];
+  };
+  double p0[3];
+  total(p0);
+  const double p0Norm = std::sqrt(p0[0] * p0[0] + p0[1] * p0[1] + p0[2] * p0[2]);
+  double drift = 0;
+  int ticks = 0;
+  coupler.setUserTickCallback([&](float) {
+    double p[3];
+    total(p);
+    drift = std::fmax(drift, std::sqrt((p[0] - p0[0]) * (p[0] - p0[0]) + (p[1] - p0[1]) * (p[1] - p0[1]) +
+                                       (p[2] - p0[2]) * (p[2] - p0[2])));
+    ++ticks;
+  });
+  for (int f = 0; f < 5; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);  // 83 ms
+
+  const ObjectSummary s = scene.summary(block);
+  const double sphereP = mass * sphere->getLinearVelocity().x();
+  std::printf("%s world, sphere on free tissue over %d ticks: p0 = (%.5f, %.5f, %.5f) kg m/s; sphere p_x %.5f, "
+              "tissue p = (%.5f, %.5f, %.5f); largest |p - p0| = %.2e (%.4f%% of |p0|)\n",
+              worldName(GetParam()), ticks, p0[0], p0[1], p0[2], sphereP, s.momentum[0], s.momentum[1],
+              s.momentum[2], drift, 100 * drift / p0Norm);
+  EXPECT_LT(drift, 0.01 * p0Norm) << "total momentum drift";
+  EXPECT_GT(s.momentum[0], 0.5 * p0[0]) << "the sphere hit and handed on most of its momentum";
+  EXPECT_LT(sphereP, 0.5 * p0[0]);
+}
+
+INSTANTIATE_TEST_SUITE_P(WorldTypes, BulletPhysics, ::testing::Values(WorldType::Discrete, WorldType::MultiBody),
+                         [](const auto& info) { return info.param == WorldType::Discrete ? "Discrete" : "MultiBody"; });
+
+// ---------------------------------------------------------------------------------------
+// 3. Featherstone links (btMultiBodyDynamicsWorld only): a floating-base chain of three
+// boxes joined by revolute joints about z, each box a btMultiBodyLinkCollider coupled
+// through Coupler::addMultiBody.
+
+/// Rotation angle [rad] of a quaternion (from its vector part: exact for small angles).
+double angleOf(const btQuaternion& q) {
+  const double v = std::sqrt((double)q.x() * q.x() + (double)q.y() * q.y() + (double)q.z() * q.z());
+  return 2 * std::atan2(v, std::fabs((double)q.w()));
+}
+
+// (a) In zero gravity, away from any tissue, the chain spins and flexes. Each link's shape
+// moves through the tick with the velocity the coupler gave it, so after the tick the
+// shape's pose must match the link collider's pose Bullet integrated, to O(a dt^2): a link
+// velocity in the wrong frame or of the wrong link would be off by O(v dt).
+TEST(BulletMultiBodyLinks, ShapesFollowLinkVelocities) {
+  BulletWorld bw(WorldType::MultiBody, 0.f);
+  SceneSettings st;
+  st.domain.lower = {-0.5f, -0.5f, -0.5f};
+  st.domain.upper = {0.5f, 0.5f, 0.5f};
+  st.dx = 0.02f;
+  st.gravity = {0.f, 0.f, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc speck;  // a little tissue far from the chain
+  speck.center = {0.f, -0.4f, 0.f};
+  speck.halfExtents = {0.02f, 0.02f, 0.02f};
+  speck.material = softTissue();
+  scene.addParticleObject(speck);
+
+  btMultiBody* chain = bw.addBoxChain(3, btVector3(0.035f, 0.015f, 0.05f), 0.01f, 0.5f, btVector3(-0.08f, 0.1f, 0));
+  chain->setLinearDamping(0.f);
+  chain->setAngularDamping(0.f);
+  chain->setBaseVel(btVector3(0.2f, 0.1f, -0.1f));
+  chain->setBaseOmega(btVector3(0.5f, 3.f, 1.f));
+  chain->setJointVel(0, 2.f);
+  chain->setJointVel(1, -3.f);
+  bullet::Coupler coupler(bw.world.get(), scene);
+  const std::vector<btCollisionObject*> links = bw.chainColliders(chain);
+  const std::vector<ShapeId> ids = coupler.addMultiBody(chain);
+  ASSERT_EQ(ids.size(), links.size());
+
+  std::vector<btTransform> before;
+  for (const btCollisionObject* c : links) before.push_back(c->getWorldTransform());
+  double worstMove = 0, worstTurn = 0;  // largest error / motion over a tick
+  int ticks = 0;
+  coupler.setUserTickCallback([&](float) {
+    for (size_t i = 0; i < links.size(); ++i) {
+      const btTransform& now = links[i]->getWorldTransform();
+      const ShapeState s = scene.shapeState(ids[i]);
+      const btVector3 shapePos(s.pose.position.x, s.pose.position.y, s.pose.position.z);
+      const btQuaternion shapeRot(s.pose.rotation.x, s.pose.rotation.y, s.pose.rotation.z, s.pose.rotation.w);
+      const double move = (now.getOrigin() - before[i].getOrigin()).length();
+      const double turn = angleOf(before[i].getRotation().inverse() * now.getRotation());
+      worstMove = std::fmax(worstMove, (shapePos - now.getOrigin()).length() / move);
+      worstTurn = std::fmax(worstTurn, angleOf(shapeRot.inverse() * now.getRotation()) / turn);
+      before[i] = now;
+    }
+    ++ticks;
+  });
+  for (int f = 0; f < 4; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
+  std::printf("chain in zero gravity over %d ticks: shape pose vs link pose after a tick, largest position error "
+              "%.2f%% of the link's motion, rotation error %.2f%% of its turn\n",
+              ticks, 100 * worstMove, 100 * worstTurn);
+  ASSERT_GT(ticks, 0);
+  EXPECT_LT(worstMove, 0.05);
+  EXPECT_LT(worstTurn, 0.05);
+}
+
+// (b) The chain (three 0.5 kg boxes) dropped from 5 mm onto a soft slab lying on Bullet's
+// ground, run for `seconds`.
+
+struct ChainOnTissue {
+  double force = 0;              ///< coupling force on all colliders, averaged from 0.4 s [N]
+  double averagedOver = 0;       ///< [s]
+  double weight = 0;             ///< [N]
+  double sinkSpeed = 0;          ///< downward speed of the base, mean from 0.4 s to the end [m/s]
+  double baseSpeed = 0;          ///< at the end [m/s]
+  double jointRate[2] = {0, 0};  ///< at the end [rad/s]
+  float bottom[3], surface[3];   ///< lowest corner of each box; highest particle under it [m]
+  float top = 0;                 ///< tissue top at the start [m]
+};
+
+ChainOnTissue runChainOnTissue(double seconds) {
+  BulletWorld bw(WorldType::MultiBody, kG);
+  SceneSettings st;
+  st.domain.lower = {-0.24f, -0.1f, -0.14f};
+  st.domain.upper = {0.24f, 0.3f, 0.14f};
+  st.dx = 0.02f;
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc slab;
+  slab.center = {0.f, 0.03f + 0.002f, 0.f};
+  slab.halfExtents = {0.15f, 0.03f, 0.08f};
+  slab.material = softTissue();
+  const ParticleObjectId tissue = scene.addParticleObject(slab);
+  ChainOnTissue r;
+  r.top = slab.center.y + slab.halfExtents.y;
+
+  btRigidBody* ground = bw.addGround();
+  const btVector3 half(0.035f, 0.015f, 0.05f);
+  const float massEach = 0.5f;
+  btMultiBody* chain = bw.addBoxChain(3, half, 0.01f, massEach, btVector3(-0.08f, r.top + half.y() + 0.005f, 0));
+  bullet::Coupler coupler(bw.world.get(), scene);
+  bullet::CouplingOptions opts;
+  opts.contact.friction = 0.5f;
+  coupler.addRigidBody(ground);
+  const std::vector<btCollisionObject*> links = bw.chainColliders(chain);
+  const std::vector<ShapeId> ids = coupler.addMultiBody(chain, opts);
+  EXPECT_EQ(ids.size(), 3u);
+
+  double impulse = 0, baseAt04 = 0;
+  coupler.setUserTickCallback([&](float dt) {
+    if (scene.time() > 0.4) {
+      if (r.averagedOver == 0) baseAt04 = chain->getBasePos().y();
+      for (const ShapeId id : ids) impulse += scene.shapeImpulse(id).linear.y;
+      r.averagedOver += dt;
+    }
+  });
+  const int frames = (int)std::lround(seconds * 60);
+  for (int f = 0; f < frames; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
+
+  r.weight = 3 * massEach * kG;
+  r.force = impulse / r.averagedOver;
+  r.sinkSpeed = (baseAt04 - chain->getBasePos().y()) / r.averagedOver;
+  r.baseSpeed = chain->getBaseVel().length();
+  for (int i = 0; i < 2; ++i) r.jointRate[i] = chain->getJointVel(i);
+  std::vector<Vec3f> x;
+  scene.readPositions(tissue, x);
+  for (size_t i = 0; i < links.size(); ++i) {
+    const btVector3 c = links[i]->getWorldTransform().getOrigin();
+    r.surface[i] = -1.f;
+    for (const Vec3f& p : x)
+      if (std::fabs(p.x - (float)c.x()) < half.x() && std::fabs(p.z - (float)c.z()) < half.z())
+        r.surface[i] = std::fmax(r.surface[i], p.y);
+    btVector3 lo, hi;
+    links[i]->getCollisionShape()->getAabb(links[i]->getWorldTransform(), lo, hi);
+    r.bottom[i] = (float)lo.y();
+  }
+  std::printf("chain on tissue, %.1f s: time-averaged coupling force %.4f N over %.3f s, weight %.4f N (%+.2f%%); "
+              "base sinking at %.2f mm/s; base speed %.4f m/s, joint rates %.4f, %.4f rad/s\n",
+              seconds, r.force, r.averagedOver, r.weight, 100 * (r.force - r.weight) / r.weight, 1e3 * r.sinkSpeed,
+              r.baseSpeed, r.jointRate[0], r.jointRate[1]);
+  for (int i = 0; i < 3; ++i)
+    std::printf("  box %d: bottom %.4f m, highest particle under it %.4f m, tissue top at start %.4f m\n", i,
+                r.bottom[i], r.surface[i], r.top);
+  return r;
+}
+
+// Over 0.8 s it comes to rest on the tissue, its boxes no more than half a cell into it
+// (measured from the highest particle under each box and from the tissue's top), and
+// averaged over 0.4-0.8 s the coupling forces on its colliders carry its weight within 3%.
+TEST(BulletMultiBodyLinks, ChainRestsOnTissueWithItsWeight) {
+  const ChainOnTissue r = runChainOnTissue(0.8);
+  const float dx = 0.02f;
+  ASSERT_GT(r.averagedOver, 0.3);
+  EXPECT_NEAR(r.force, r.weight, 0.03 * r.weight) << "time-averaged coupling force [N]";
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_GT(r.bottom[i] - r.surface[i], -0.5f * dx) << "box " << i << " sank more than half a cell into the tissue";
+    EXPECT_LT(r.bottom[i] - r.surface[i], 0.5f * dx) << "box " << i << " rests on the tissue, not on a cushion of grid";
+    EXPECT_GT(r.bottom[i], r.top - 0.5f * dx) << "box " << i << " below the tissue's top minus half a cell";
+  }
+  EXPECT_LT(r.baseSpeed, 0.05) << "the chain has come to rest";
+  for (int i = 0; i < 2; ++i) EXPECT_LT(std::fabs(r.jointRate[i]), 0.5) << "joint " << i;
+}
+
+// A resting body must not creep into the tissue. With a dynamic shape's gravity added
+// after the contact response (the first version of shape_kernels.h), a resting body
+// stepped g h^2 into the tissue every substep h and sank at about g h (3.4 mm/s here,
+// h = 0.35 ms); with gravity before the contact it stays (measured under 0.05 mm over 1.6 s).
+TEST(BulletMultiBodyLinks, RestingChainDoesNotSinkIntoTissue) {
+  const ChainOnTissue r = runChainOnTissue(2.0);
+  EXPECT_LT(std::fabs(r.sinkSpeed), 0.5e-3) << "a resting chain must not keep moving into the tissue [m/s]";
+  for (int i = 0; i < 3; ++i)
+    EXPECT_GT(r.bottom[i] - r.surface[i], -0.25f * 0.02f) << "box " << i << " went into the tissue";
+}
+
+// ---------------------------------------------------------------------------------------
+// 4. Shape conversion with local scaling and compounds. Bullet's own answer for a convex
+// part is its support function: for a convex set, the signed distance of p is
+// max over unit n of (n . p - h(n)), h(n) = n . localGetSupportingVertex(n), outside and
+// inside alike. Each converted part's signed distance (its primitive SDF at its local
+// pose) must equal that of the Bullet child it came from.
+
+/// Signed distance of p to a convex Bullet shape, from its support function: a dense
+/// direction set, then a local ascent on the sphere.
+double supportDistance(const btConvexShape& shape, const btVector3& p) {
+  auto value = [&](const btVector3& n) { return (double)(n.dot(p) - n.dot(shape.localGetSupportingVertex(n))); };
+  const int count = 2000;
+  btVector3 best(0, 1, 0);
+  double bestValue = -1e30;
+  for (int i = 0; i < count; ++i) {  // Fibonacci sphere plus the six axes
+    btVector3 n;
+    if (i < 6) {
+      n = btVector3(0, 0, 0);
+      n[i / 2] = (i % 2) ? -1 : 1;
+    } else {
+      const double z = 1 - 2 * (i + 0.5) / count, r = std::sqrt(1 - z * z), phi = i * kPi * (3 - std::sqrt(5.0));
+      n = btVector3((btScalar)(r * std::cos(phi)), (btScalar)(r * std::sin(phi)), (btScalar)z);
+    }
+    const double v = value(n);
+    if (v > bestValue) bestValue = v, best = n;
+  }
+  for (double step = 0.05; step > 1e-5;) {
+    btVector3 u = best.cross(std::fabs(best.x()) < 0.9 ? btVector3(1, 0, 0) : btVector3(0, 1, 0)).normalized();
+    const btVector3 w = best.cross(u);
+    bool improved = false;
+    for (const btVector3& t : {u, -u, w, -w}) {
+      const btVector3 n = (best + (btScalar)step * t).normalized();
+      const double v = value(n);
+      if (v > bestValue) bestValue = v, best = n, improved = true;
+    }
+    if (!improved) step *= 0.5;
+  }
+  return bestValue;
+}
+
+btTransform toBt(const Pose& p) {
+  return btTransform(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
+                     btVector3(p.position.x, p.position.y, p.position.z));
+}
+
+/// Signed distance of a converted part at p (the shape's frame).
+float partDistance(const Geometry& g, const btVector3& p) {
+  const btVector3 q = toBt(g.localPose).inverse() * p;
+  const Vec3f l{(float)q.x(), (float)q.y(), (float)q.z()};
+  Vec3f n;
+  switch (g.type) {
+    case GeometryType::Box: return sdfBox(l, g.halfExtents, n);
+    case GeometryType::Capsule: return sdfCapsule(l, g.radius, g.halfHeight, g.axis, n);
+    case GeometryType::Sphere: return sdfSphere(l, g.radius, n);
+    case GeometryType::Cylinder: return sdfCylinder(l, g.radius, g.halfHeight, g.axis, n);
+    default: ADD_FAILURE() << "unexpected part type"; return 0.f;
+  }
+}
+
+/// Compares part `g` with the convex Bullet shape `child` placed at `childPose` in the
+/// shape's frame, at random points of the child's own bounding box grown 1.5 times.
+void expectPartMatches(const Geometry& g, const btConvexShape& child, const btTransform& childPose,
+                       const std::string& what, unsigned seed) {
+  btVector3 lo, hi;
+  child.getAabb(btTransform::getIdentity(), lo, hi);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> u(-1.5f, 1.5f);
+  double worst = 0;
+  int inside = 0;
+  for (int k = 0; k < 300; ++k) {
+    const btVector3 local = 0.5f * (lo + hi) + 0.5f * (hi - lo) * btVector3(u(rng), u(rng), u(rng));
+    const btVector3 p = childPose * local;
+    const double bullet = supportDistance(child, childPose.inverse() * p);
+    const double ours = partDistance(g, p);
+    worst = std::fmax(worst, std::fabs(ours - bullet));
+    inside += bullet < 0;
+    EXPECT_NEAR(ours, bullet, 1e-5) << what << " at (" << p.x() << ", " << p.y() << ", " << p.z() << ")";
+  }
+  std::printf("%s: largest |sdf - Bullet support distance| %.2e m over 300 points (%d inside)\n", what.c_str(), worst,
+              inside);
+  EXPECT_GT(inside, 30) << what << ": too few sample points inside";
+}
+
+void expectPoseNear(const Pose& p, const btTransform& t, const std::string& what) {
+  const btVector3 o = t.getOrigin();
+  EXPECT_NEAR(p.position.x, o.x(), 1e-6f) << what;
+  EXPECT_NEAR(p.position.y, o.y(), 1e-6f) << what;
+  EXPECT_NEAR(p.position.z, o.z(), 1e-6f) << what;
+  const btQuaternion q(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w);
+  EXPECT_LT(angleOf(q.inverse() * t.getRotation()), 1e-5) << what << ": rotation";
+}
+
+// A compound of two boxes and a capsule, each child rotated and offset, scaled by
+// (1.5, 0.8, 2) through btCompoundShape::setLocalScaling (Bullet scales each child in its
+// own frame and the child offsets in the compound's frame).
+TEST(BulletShapeConversion, ScaledCompoundOfBoxesAndCapsule) {
+  btCompoundShape compound;
+  btBoxShape boxA(btVector3(0.05f, 0.02f, 0.03f)), boxB(btVector3(0.02f, 0.06f, 0.02f));
+  btCapsuleShape capsule(0.015f, 0.06f);  // along y: radius 1.5 cm, half height 3 cm
+  const btTransform poseA(btQuaternion(btVector3(0, 1, 0), 0.5f), btVector3(0.04f, 0, 0));
+  const btTransform poseB(btQuaternion(btVector3(1, 0, 0), 0.35f), btVector3(-0.03f, 0.02f, 0.01f));
+  const btTransform poseC(btQuaternion(btVector3(0, 0, 1), 1.2f), btVector3(0.01f, -0.03f, -0.02f));
+  compound.addChildShape(poseA, &boxA);
+  compound.addChildShape(poseB, &boxB);
+  compound.addChildShape(poseC, &capsule);
+  const btVector3 scaling(1.5f, 0.8f, 2.f);
+  compound.setLocalScaling(scaling);
+
+  const std::vector<Geometry> parts = bullet::convertShape(&compound, 0.005f);
+  ASSERT_EQ(parts.size(), 3u);
+  EXPECT_EQ(parts[0].type, GeometryType::Box);
+  EXPECT_EQ(parts[1].type, GeometryType::Box);
+  EXPECT_EQ(parts[2].type, GeometryType::Capsule);
+  // closed forms: child sizes times the scaling, child offsets times the scaling
+  const btVector3 a = btVector3(0.05f, 0.02f, 0.03f) * scaling, b = btVector3(0.02f, 0.06f, 0.02f) * scaling;
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(parts[0].halfExtents[k], a[k], 1e-6f) << "box A half extent " << k;
+    EXPECT_NEAR(parts[1].halfExtents[k], b[k], 1e-6f) << "box B half extent " << k;
+  }
+  EXPECT_EQ(parts[2].axis, 1);
+  EXPECT_NEAR(parts[2].radius, 0.015f * scaling.x(), 1e-6f) << "Bullet scales a y capsule's radius by x";
+  EXPECT_NEAR(parts[2].halfHeight, 0.03f * scaling.y(), 1e-6f);
+  const btTransform poses[3] = {poseA, poseB, poseC};
+  for (int i = 0; i < 3; ++i) {
+    btTransform scaled = poses[i];
+    scaled.setOrigin(poses[i].getOrigin() * scaling);
+    expectPoseNear(parts[i].localPose, scaled, "part " + std::to_string(i) + " local pose");
+    expectPoseNear(parts[i].localPose, compound.getChildTransform(i), "part " + std::to_string(i) + " vs Bullet child");
+  }
+  // Bullet's answer, child by child
+  for (int i = 0; i < 3; ++i)
+    expectPartMatches(parts[i], *static_cast<const btConvexShape*>(compound.getChildShape(i)),
+                      compound.getChildTransform(i), "compound part " + std::to_string(i), 100 + i);
+  // the union: inside a part exactly where Bullet's box test or capsule support says inside
+  std::mt19937 rng(7);
+  btVector3 lo, hi;
+  compound.getAabb(btTransform::getIdentity(), lo, hi);
+  std::uniform_real_distribution<float> ux(lo.x() - 0.01f, hi.x() + 0.01f), uy(lo.y() - 0.01f, hi.y() + 0.01f),
+      uz(lo.z() - 0.01f, hi.z() + 0.01f);
+  int agree = 0, tested = 0;
+  for (int k = 0; k < 2000; ++k) {
+    const btVector3 p(ux(rng), uy(rng), uz(rng));
+    float ours = 1e30f;
+    for (const Geometry& g : parts) ours = std::fmin(ours, partDistance(g, p));
+    if (std::fabs(ours) < 1e-4f) continue;  // on a surface: either answer
+    bool inBullet = false;
+    for (int i = 0; i < 2; ++i) {
+      const btBoxShape* box = static_cast<const btBoxShape*>(compound.getChildShape(i));
+      inBullet |= box->isInside(compound.getChildTransform(i).inverse() * p, box->getMargin());
+    }
+    inBullet |= supportDistance(capsule, compound.getChildTransform(2).inverse() * p) < 0;
+    ++tested;
+    agree += inBullet == (ours < 0.f);
+  }
+  std::printf("compound union: %d of %d points on the same side as Bullet's isInside / support test\n", agree, tested);
+  EXPECT_EQ(agree, tested);
+}
+
+// Capsules scaled on their own: along x, scaled (1.5, 2, 2), and along y, scaled (2, 0.5, 2).
+// Bullet scales the half height by the up axis' factor and the radius by that of axis
+// (up + 2) mod 3.
+TEST(BulletShapeConversion, ScaledCapsules) {
+  btCapsuleShapeX alongX(0.02f, 0.08f);
+  alongX.setLocalScaling(btVector3(1.5f, 2.f, 2.f));
+  btCapsuleShape alongY(0.02f, 0.08f);
+  alongY.setLocalScaling(btVector3(2.f, 0.5f, 2.f));
+  struct Case {
+    const btCapsuleShape* shape;
+    int axis;
+    float radius, halfHeight;
+    const char* name;
+  };
+  for (const Case& c : {Case{&alongX, 0, 0.04f, 0.06f, "capsule x scaled (1.5, 2, 2)"},
+                        Case{&alongY, 1, 0.04f, 0.02f, "capsule y scaled (2, 0.5, 2)"}}) {
+    const std::vector<Geometry> parts = bullet::convertShape(c.shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u) << c.name;
+    const Geometry& g = parts[0];
+    EXPECT_EQ(g.type, GeometryType::Capsule) << c.name;
+    EXPECT_EQ(g.axis, c.axis) << c.name;
+    EXPECT_NEAR(g.radius, c.radius, 1e-6f) << c.name;
+    EXPECT_NEAR(g.halfHeight, c.halfHeight, 1e-6f) << c.name;
+    expectPoseNear(g.localPose, btTransform::getIdentity(), c.name);
+    expectPartMatches(g, *c.shape, btTransform::getIdentity(), c.name, 200 + c.axis);
+  }
+}
+
+}  // namespace
+}  // namespace mpm
