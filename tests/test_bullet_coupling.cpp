@@ -13,49 +13,24 @@
 #include <memory>
 #include <vector>
 
+#include "bullet_test_world.h"
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
 
 namespace mpm {
 namespace {
 
-enum class WorldType { Discrete, MultiBody };
+using test::BulletWorld;
+using test::WorldType;
 
-/// A Bullet world of either type with a static ground plane y = 0.
-struct BulletWorld {
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher{&config};
-  btDbvtBroadphase broadphase;
-  std::unique_ptr<btSequentialImpulseConstraintSolver> solver;
-  std::unique_ptr<btDiscreteDynamicsWorld> world;
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
-  std::vector<std::unique_ptr<btDefaultMotionState>> states;
-  std::vector<std::unique_ptr<btRigidBody>> bodies;
-  btRigidBody* ground = nullptr;
-
-  explicit BulletWorld(WorldType type) {
-    if (type == WorldType::MultiBody) {
-      auto* mbSolver = new btMultiBodyConstraintSolver;
-      solver.reset(mbSolver);
-      world = std::make_unique<btMultiBodyDynamicsWorld>(&dispatcher, &broadphase, mbSolver, &config);
-    } else {
-      solver = std::make_unique<btSequentialImpulseConstraintSolver>();
-      world = std::make_unique<btDiscreteDynamicsWorld>(&dispatcher, &broadphase, solver.get(), &config);
-    }
-    world->setGravity(btVector3(0, -9.81f, 0));
-    ground = addBody(new btStaticPlaneShape(btVector3(0, 1, 0), 0), 0.f, btVector3(0, 0, 0));
-  }
-  ~BulletWorld() {
-    for (auto& b : bodies) world->removeRigidBody(b.get());
-  }
-  btRigidBody* addBody(btCollisionShape* shape, float mass, const btVector3& at) {
-    shapes.emplace_back(shape);
-    btVector3 inertia(0, 0, 0);
-    if (mass > 0.f) shape->calculateLocalInertia(mass, inertia);
-    states.emplace_back(new btDefaultMotionState(btTransform(btQuaternion::getIdentity(), at)));
-    bodies.emplace_back(new btRigidBody(mass, states.back().get(), shape, inertia));
-    world->addRigidBody(bodies.back().get());
-    return bodies.back().get();
+/// The coupling tests' world: gravity (0, -9.81, 0) and a static ground plane y = 0.
+struct GroundedWorld : BulletWorld {
+  btRigidBody* ground;
+  explicit GroundedWorld(WorldType type)
+      : BulletWorld(type, 9.81f),
+        ground(addBody(new btStaticPlaneShape(btVector3(0, 1, 0), 0), 0.f, btTransform::getIdentity())) {}
+  btRigidBody* addBodyAt(btCollisionShape* shape, float mass, const btVector3& at) {
+    return addBody(shape, mass, btTransform(btQuaternion::getIdentity(), at));
   }
 };
 
@@ -84,11 +59,11 @@ class BulletCoupling : public ::testing::TestWithParam<WorldType> {};
 // A rigid box resting on a soft slab that lies on the Bullet ground: averaged over time,
 // the coupling holds the box up with m g and the box does not sink into the tissue.
 TEST_P(BulletCoupling, RestingBoxFeelsItsWeight) {
-  BulletWorld bw(GetParam());
+  GroundedWorld bw(GetParam());
   Scene scene(tissueScene());
   const ParticleObjectId tissue = scene.addParticleObject(slab());
   const float mass = 2.f, h = 0.03f;
-  btRigidBody* box = bw.addBody(new btBoxShape(btVector3(0.05f, h, 0.05f)), mass, btVector3(0, 0.104f + h + 0.005f, 0));
+  btRigidBody* box = bw.addBodyAt(new btBoxShape(btVector3(0.05f, h, 0.05f)), mass, btVector3(0, 0.104f + h + 0.005f, 0));
   bullet::Coupler coupler(bw.world.get(), scene);
   bullet::CouplingOptions opts;
   opts.contact.friction = 0.5f;
@@ -122,11 +97,11 @@ TEST_P(BulletCoupling, RestingBoxFeelsItsWeight) {
 TEST_P(BulletCoupling, LightAndHeavyBoxesSettleAndHeavierSinksDeeper) {
   std::vector<float> rest;
   for (float mass : {0.02f, 2.f, 20.f}) {
-    BulletWorld bw(GetParam());
+    GroundedWorld bw(GetParam());
     Scene scene(tissueScene());
     scene.addParticleObject(slab());
     const float h = 0.03f;
-    btRigidBody* box = bw.addBody(new btBoxShape(btVector3(0.05f, h, 0.05f)), mass, btVector3(0, 0.104f + h + 0.005f, 0));
+    btRigidBody* box = bw.addBodyAt(new btBoxShape(btVector3(0.05f, h, 0.05f)), mass, btVector3(0, 0.104f + h + 0.005f, 0));
     bullet::Coupler coupler(bw.world.get(), scene);
     coupler.addRigidBody(bw.ground);
     coupler.addRigidBody(box);

@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "bullet_test_world.h"
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/shape_conversion.h"
@@ -30,91 +31,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr float kG = 9.81f;
 
-enum class WorldType { Discrete, MultiBody };
-
-/// A Bullet world of either type with gravity (0, -g, 0) and no bodies.
-struct BulletWorld {
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher{&config};
-  btDbvtBroadphase broadphase;
-  std::unique_ptr<btSequentialImpulseConstraintSolver> solver;
-  std::unique_ptr<btDiscreteDynamicsWorld> world;
-  btMultiBodyDynamicsWorld* multiWorld = nullptr;  ///< the same world, if it is one
-  std::vector<std::unique_ptr<btCollisionShape>> shapes;
-  std::vector<std::unique_ptr<btDefaultMotionState>> states;
-  std::vector<std::unique_ptr<btRigidBody>> bodies;
-  std::vector<std::unique_ptr<btMultiBodyLinkCollider>> colliders;
-  std::vector<std::unique_ptr<btMultiBody>> multiBodies;
-
-  BulletWorld(WorldType type, float g) {
-    if (type == WorldType::MultiBody) {
-      auto* mbSolver = new btMultiBodyConstraintSolver;
-      solver.reset(mbSolver);
-      auto mw = std::make_unique<btMultiBodyDynamicsWorld>(&dispatcher, &broadphase, mbSolver, &config);
-      multiWorld = mw.get();
-      world = std::move(mw);
-    } else {
-      solver = std::make_unique<btSequentialImpulseConstraintSolver>();
-      world = std::make_unique<btDiscreteDynamicsWorld>(&dispatcher, &broadphase, solver.get(), &config);
-    }
-    world->setGravity(btVector3(0, -g, 0));  // before bodies are added: they copy it
-  }
-  ~BulletWorld() {
-    for (auto& b : bodies) world->removeRigidBody(b.get());
-    for (auto& c : colliders) world->removeCollisionObject(c.get());
-    for (auto& m : multiBodies) multiWorld->removeMultiBody(m.get());
-  }
-  btRigidBody* addBody(btCollisionShape* shape, float mass, const btTransform& pose) {
-    shapes.emplace_back(shape);
-    btVector3 inertia(0, 0, 0);
-    if (mass > 0.f) shape->calculateLocalInertia(mass, inertia);
-    states.emplace_back(new btDefaultMotionState(pose));
-    bodies.emplace_back(new btRigidBody(mass, states.back().get(), shape, inertia));
-    world->addRigidBody(bodies.back().get());
-    return bodies.back().get();
-  }
-  btRigidBody* addGround() {  // the plane y = 0
-    return addBody(new btStaticPlaneShape(btVector3(0, 1, 0), 0), 0.f, btTransform::getIdentity());
-  }
-
-  /// A floating-base chain of equal boxes along x (base first), joined by revolute joints
-  /// about z with a gap between neighbours, base centre at `at`. Multibody world only.
-  btMultiBody* addBoxChain(int boxes, const btVector3& half, float gap, float massEach, const btVector3& at) {
-    btBoxShape* box = new btBoxShape(half);
-    shapes.emplace_back(box);
-    btVector3 inertia;
-    box->calculateLocalInertia(massEach, inertia);
-    multiBodies.emplace_back(new btMultiBody(boxes - 1, massEach, inertia, false, false));
-    btMultiBody* mb = multiBodies.back().get();
-    const btVector3 toPivot(half.x() + 0.5f * gap, 0, 0);
-    for (int i = 0; i < boxes - 1; ++i)
-      mb->setupRevolute(i, massEach, inertia, i - 1, btQuaternion::getIdentity(), btVector3(0, 0, 1), toPivot, toPivot,
-                        true);
-    mb->finalizeMultiDof();
-    mb->setBasePos(at);
-    mb->setWorldToBaseRot(btQuaternion::getIdentity());
-    multiWorld->addMultiBody(mb);
-    for (int link = -1; link < boxes - 1; ++link) {
-      colliders.emplace_back(new btMultiBodyLinkCollider(mb, link));
-      btMultiBodyLinkCollider* c = colliders.back().get();
-      c->setCollisionShape(box);
-      world->addCollisionObject(c, btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter);
-      if (link < 0)
-        mb->setBaseCollider(c);
-      else
-        mb->getLink(link).m_collider = c;
-    }
-    btAlignedObjectArray<btQuaternion> scratchRot;
-    btAlignedObjectArray<btVector3> scratchPos;
-    mb->updateCollisionObjectWorldTransforms(scratchRot, scratchPos);
-    return mb;
-  }
-  std::vector<btCollisionObject*> chainColliders(btMultiBody* mb) const {
-    std::vector<btCollisionObject*> out{mb->getBaseCollider()};
-    for (int i = 0; i < mb->getNumLinks(); ++i) out.push_back(mb->getLink(i).m_collider);
-    return out;
-  }
-};
+using test::BulletWorld;
+using test::WorldType;
 
 const char* worldName(WorldType t) { return t == WorldType::Discrete ? "discrete" : "multibody"; }
 
