@@ -37,7 +37,10 @@ struct BlockDrop {
 ///   a = sqrt(R d) at d = 0.1 R); free sides; on the domain's floor wall in Slip mode;
 ///   gravity 0. A slip floor, not a sticky one: a layer on a frictionless base stiffens the
 ///   contact less than a bonded layer (Dimitriadis et al. 2002, at nu = 0.3:
-///   F / F_H - 1 = 0.76 a/H + 0.57 (a/H)^2 against 0.88 a/H + 0.78 (a/H)^2).
+///   F / F_H - 1 = 0.76 a/H + 0.57 (a/H)^2 against 0.88 a/H + 0.78 (a/H)^2). The size is
+///   what keeps R/dx = 10 within minutes on two cores, not a half-space to a few percent:
+///   at R/dx = 4, slabs 1.5x and 2x larger give 6% and 10% more force at d = 0.1 R (the
+///   finite width softens more than the floor stiffens; bench/results/hertz.md).
 /// - Grid: dx = R / cellsPerRadius. The slab's top surface lies on a node layer and the
 ///   sphere's axis on a node column at every resolution, so the rows of a resolution study
 ///   differ in dx only.
