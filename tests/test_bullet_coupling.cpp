@@ -93,10 +93,15 @@ TEST_P(BulletCoupling, RestingBoxFeelsItsWeight) {
 // Light, equal and heavy boxes. A box no heavier than the tissue under it settles: the
 // coupling must not make a light body oscillate. The heavy box rocks on the undamped
 // elastic slab like a mass on a spring (period about 0.2 s), which is physical; its
-// oscillation must not grow. The heavier the box, the deeper it sinks.
+// oscillation must not grow. The heavier the box, the deeper it sinks. The heavy box is
+// 15 kg: at 20 kg the slab under the box's edges reaches J < 0.5, where the decoupled
+// Neo-Hookean's Kirchhoff pressure K J (J - 1) stops rising with compression (tangent
+// bulk modulus K (2J - 1) < 0), and whether a particle there collapses depends on float
+// rounding (seen with the same physics compiled two ways). A limit of that law, not of the
+// coupling.
 TEST_P(BulletCoupling, LightAndHeavyBoxesSettleAndHeavierSinksDeeper) {
   std::vector<float> rest;
-  for (float mass : {0.02f, 2.f, 20.f}) {
+  for (float mass : {0.02f, 2.f, 15.f}) {
     GroundedWorld bw(GetParam());
     Scene scene(tissueScene());
     scene.addParticleObject(slab());

@@ -14,6 +14,7 @@
 #include "backend/sim_backend.h"
 #include "core/validate.h"
 #include "shapes/shape_builder.h"
+#include "solvers/solver_list.h"
 
 namespace mpm {
 
@@ -131,10 +132,10 @@ class SceneImpl {
 #endif
           "; use Backend::Cpu or Backend::Auto");
     if (s.backend == Backend::Cuda || (s.backend == Backend::Auto && haveCuda)) {
-      backend = makeCudaBackend(geo);
+      backend = makeCudaBackend(s.solver, geo);
       resolved = Backend::Cuda;
     } else {
-      backend = makeCpuBackend(geo, s.cpuThreads);
+      backend = makeCpuBackend(s.solver, geo, s.cpuThreads);
       resolved = Backend::Cpu;
     }
   }
@@ -271,8 +272,9 @@ class SceneImpl {
   int substepCount(float dt) const {
     if (settings.substeps.fixedSubsteps > 0) return settings.substeps.fixedSubsteps;
     float wave = 0.f;
-    for (const auto& o : objects)
-      if (o.alive) wave = std::max(wave, pWaveSpeed(o.material));
+    if (solverTraits(settings.solver).elasticCfl)
+      for (const auto& o : objects)
+        if (o.alive) wave = std::max(wave, pWaveSpeed(o.material));
     // a moving shape pushes material along at its own speed
     float shapeSpeed = 0.f;
     for (const auto& sh : shapes)
@@ -293,6 +295,10 @@ class SceneImpl {
     p.walls.enabled = settings.domain.walls ? 1 : 0;
     p.walls.mode = static_cast<int>(settings.domain.wallMode);
     p.walls.thickness = settings.domain.wallThickness;
+    p.solver.flipBlend = settings.standardMpm.flipBlend;
+    p.solver.iterations = settings.pbMpm.iterations;
+    p.solver.relaxation = settings.pbMpm.relaxation;
+    p.solver.rigidity = settings.pbMpm.rigidity;
     backend->sortParticles();
     for (int s = 0; s < substeps; ++s) backend->substep(p);
     time += dt;
@@ -309,7 +315,8 @@ class SceneImpl {
     std::ostringstream s;
     s << "particle " << all.local[particle] << " of object " << all.object[particle]
       << " is at " << validate::show(all.x[particle]) << " with velocity "
-      << validate::show(all.v[particle]) << " at t = " << time
+      << validate::show(all.v[particle]) << " and volume ratio J = det F = "
+      << determinant(all.F[particle]) << " at t = " << time
       << " s: its state is not finite or it left the grid";
     throw SimulationDiverged(s.str());
   }
@@ -493,7 +500,8 @@ ObjectSummary Scene::summary(ParticleObjectId id) const {
   ObjectSummary s;
   // APIC carries spin in C: a particle's angular momentum about its own position is
   // m D eps : C^T with D = dx^2 / 4 for quadratic B-splines (Jiang et al. 2015).
-  const double D = 0.25 * (double)impl_->settings.dx * impl_->settings.dx;
+  const double D =
+      solverTraits(impl_->settings.solver).affine ? 0.25 * (double)impl_->settings.dx * impl_->settings.dx : 0.0;
   double lx = 0, ly = 0, lz = 0;
   for (size_t i = 0; i < all.size(); ++i) {
     if (all.object[i] != id.index) continue;

@@ -104,6 +104,18 @@ MPM_HD float determinant(const Mat3f& a) {
          a.m[0][1] * (a.m[1][0] * a.m[2][2] - a.m[1][2] * a.m[2][0]) +
          a.m[0][2] * (a.m[1][0] * a.m[2][1] - a.m[1][1] * a.m[2][0]);
 }
+/// Inverse by the adjugate; the caller makes sure det a != 0.
+MPM_HD Mat3f inverse(const Mat3f& a) {
+  const float inv = 1.f / determinant(a);
+  Mat3f r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      // cofactor of a[j][i], from the cyclic neighbours of row j and column i
+      const int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+      r.m[i][j] = inv * (a.m[r0][c0] * a.m[r1][c1] - a.m[r0][c1] * a.m[r1][c0]);
+    }
+  return r;
+}
 /// Outer product a b^T.
 MPM_HD Mat3f outer(Vec3f a, Vec3f b) {
   Mat3f r;

@@ -10,8 +10,29 @@
 
 namespace mpm {
 
-/// Which algorithm advances the particles.
-enum class SolverType { MlsMpm };
+/// Which algorithm advances the particles (all share shapes, contact, walls and output).
+enum class SolverType {
+  MlsMpm,       ///< moving-least-squares MPM with APIC transfers (Hu et al. 2018); the default
+  StandardMpm,  ///< explicit update-stress-last MPM with a PIC/FLIP blend
+  PbMpm         ///< position-based MPM (Lewin 2024): iterated constraint projection, large steps
+};
+
+/// Parameters of SolverType::StandardMpm.
+struct StandardMpmSettings {
+  /// FLIP share of the particle velocity update, in [0, 1]: 0 is PIC (stable, dissipates
+  /// motion), 1 is pure FLIP (keeps motion, noisy).
+  float flipBlend = 0.95f;
+};
+
+/// Parameters of SolverType::PbMpm (the 3D form is documented in src/solvers/pb_mpm.h).
+/// Its stiffness comes from the iterations, not from Material::youngsModulus.
+struct PbMpmSettings {
+  int iterations = 10;     ///< P2G-G2P constraint iterations per substep, in [1, 1000]
+  float relaxation = 1.f;  ///< share of each iteration's correction of the velocity gradient, in (0, 2)
+  /// beta: 1 projects the deformation onto a rotation (elastic), 0 onto its volume-
+  /// preserving part (incompressible, shape free); in [0, 1].
+  float rigidity = 1.f;
+};
 
 /// Where the kernels run. `Auto` picks CUDA when a device is present, else the CPU.
 enum class Backend { Auto, Cpu, Cuda };
@@ -46,6 +67,10 @@ struct SceneSettings {
   float dx = 0.05f;                 ///< grid cell size [m]
   Vec3f gravity{0.f, -9.81f, 0.f};  ///< [m/s^2]
   SolverType solver = SolverType::MlsMpm;
+  StandardMpmSettings standardMpm;  ///< used when solver == StandardMpm
+  PbMpmSettings pbMpm;              ///< used when solver == PbMpm
+  /// Substeps per advance. PB-MPM is not bound by the elastic wave speed: with the CFL
+  /// policy its substep follows particle and shape speed only.
   SubstepPolicy substeps;
   Backend backend = Backend::Auto;
   int cpuThreads = 0;  ///< CPU backend worker threads; 0 = all hardware threads

@@ -1,5 +1,9 @@
 #pragma once
-// ParticleGridSystem<Exec>: the substep written once, for any execution backend.
+// ParticleGridSystem<Exec, Method>: particle and grid memory, and the stages every
+// particle-grid solver is made of (binning, grid clear, scatter, grid update, rigid
+// contact, gather), written once for any execution backend. The Method (solvers/) composes
+// the stages into its substep and supplies the per-particle and per-node kernels; adding a
+// solver is a new Method and a line in solvers/solver_list.h, nothing here.
 //
 // Exec supplies memory (allocate/release/copies), a parallel forEach, and the things
 // that genuinely differ between CPU and GPU: binning particles into grid blocks
@@ -12,7 +16,7 @@
 #include <utility>
 
 #include "backend/sim_backend.h"
-#include "solvers/mls_mpm_kernels.h"
+#include "solvers/transfer.h"
 
 namespace mpm {
 
@@ -63,45 +67,7 @@ struct ZeroNodes {
     nodes[n].mass = 0.f;
     nodes[n].mv = Vec3f{0.f, 0.f, 0.f};
     nodes[n].mx = Vec3f{0.f, 0.f, 0.f};
-  }
-};
-
-/// P2G of particle p into `nodes` (the global grid or a block tile).
-template <bool kCentroid>
-struct P2G {
-  ParticleView P;
-  GridGeometry geo;
-  const MaterialParams* materials;
-  float dt;
-  template <class Nodes>
-  MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-    if (geo.stencilInside(P.x[p])) mlsP2G<kCentroid>(p, P, geo, nodes, materials, dt);
-  }
-};
-
-struct GridUpdate {
-  GridView grid;
-  float dt;
-  Vec3f gravity;
-  WallParams walls;
-  MPM_HD void operator()(size_t n) const { gridUpdateNode((uint32_t)n, grid, dt, gravity, walls); }
-};
-
-/// G2P of particle p from `nodes`, the push-out from shapes, and the per-particle checks.
-struct G2P {
-  ParticleView P;
-  GridGeometry geo;
-  float dt;
-  const PartView* parts;
-  int nParts;
-  template <class Nodes>
-  MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-    StepCheck c;
-    // a particle already outside keeps its state; G2P would read nodes that do not exist
-    if (!geo.stencilInside(P.x[p]) || !mlsG2P(p, P, geo, nodes, dt)) c.firstBadParticle = p;
-    if (nParts) pushOutOfParts(P.x[p], parts, nParts);
-    c.maxSpeed2 = dot(P.v[p], P.v[p]);
-    return c;
+    nodes[n].dmv = Vec3f{0.f, 0.f, 0.f};
   }
 };
 
@@ -124,18 +90,23 @@ struct PredictBodies {
   MPM_HD void operator()(size_t i) const { predictBodyVelocity(bodies[i], sums[i]); }
 };
 
-struct FinishBodies {
+struct SettleBodies {
   BodyView* bodies;
   const ContactSums* sums;
   ContactSums* record;  ///< momentum exchanged, summed over the substeps of an advance
-  float dt;
   MPM_HD void operator()(size_t i) const {
-    finishBodySubstep(bodies[i], sums[i], dt);
+    settleBodyVelocity(bodies[i], sums[i]);
     for (int k = 0; k < 3; ++k) {
       record[i].impulse[k] += sums[i].impulse[k];
       record[i].angular[k] += sums[i].angular[k];
     }
   }
+};
+
+struct MoveBodies {
+  BodyView* bodies;
+  float dt;
+  MPM_HD void operator()(size_t i) const { moveBody(bodies[i], dt); }
 };
 
 /// out[i] = in[order[i]]: applies a sort permutation to one field.
@@ -149,7 +120,7 @@ struct Gather {
 
 }  // namespace kernels
 
-template <class Exec>
+template <class Exec, class Method>
 class ParticleGridSystem final : public SimBackend {
  public:
   template <class... Args>
@@ -222,46 +193,82 @@ class ParticleGridSystem final : public SimBackend {
 
   void substep(const SubstepParams& s) override {
     if (count_ == 0) return;
-    const ParticleView P = view();
-
-    auto t0 = Clock::now();
-    exec_.bin(P, bins_);
-    const GridView grid = bins_.gridView();
-    const size_t nodes = (size_t)grid.activeCount * kBlockNodes;
-    exec_.forEach(nodes, kernels::ZeroNodes{grid.nodes});
-    timings.sort += seconds(t0);
-
-    t0 = Clock::now();
-    // a scene without shapes does not pay for the material centroid contact needs
-    if (parts_.size())
-      exec_.particleToGrid(bins_, kernels::P2G<true>{P, geo_, materials_.data(), s.dt});
-    else
-      exec_.particleToGrid(bins_, kernels::P2G<false>{P, geo_, materials_.data(), s.dt});
-    timings.p2g += seconds(t0);
-
-    t0 = Clock::now();
-    exec_.forEach(nodes, kernels::GridUpdate{grid, s.dt, s.gravity, s.walls});
-    timings.gridUpdate += seconds(t0);
-
-    const int nParts = (int)parts_.size(), nBodies = (int)bodies_.size();
-    if (nParts) {
-      t0 = Clock::now();
-      // the contact band of a node reaches one cell beyond the part's own bounds
-      exec_.forEach(nParts, kernels::PlaceParts{parts_.data(), bodies_.data(), geo_.dx});
-      if (anyDynamic_) {
-        exec_.forEach(nBodies, kernels::AccelerateBodies{bodies_.data(), s.dt});
-        exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 0);
-        exec_.forEach(nBodies, kernels::PredictBodies{bodies_.data(), stepSums_.data()});
-      }
-      exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 1);
-      exec_.forEach(nBodies, kernels::FinishBodies{bodies_.data(), stepSums_.data(), record_.data(), s.dt});
-      timings.contact += seconds(t0);
-    }
-
-    t0 = Clock::now();
-    exec_.gridToParticle(bins_, kernels::G2P{P, geo_, s.dt, parts_.data(), nParts});
-    timings.g2p += seconds(t0);
+    Method::substep(*this, s);
     timings.substeps += 1;
+  }
+
+  // ---- the stages a Method composes its substep from ----------------------------------
+
+  ParticleView particles() const { return view(); }
+  const GridGeometry& geometry() const { return geo_; }
+  const MaterialParams* materials() const { return materials_.data(); }
+  GridView grid() const { return bins_.gridView(); }
+  bool hasShapes() const { return parts_.size() > 0; }
+  const PartView* parts() const { return parts_.data(); }
+  int partCount() const { return (int)parts_.size(); }
+
+  /// Bins the particles by grid block and activates the blocks they reach.
+  void binParticles() {
+    const auto t0 = Clock::now();
+    exec_.bin(view(), bins_);
+    timings.sort += seconds(t0);
+  }
+  /// Zeroes every node of the active blocks.
+  void clearGrid() {
+    const auto t0 = Clock::now();
+    const GridView g = grid();
+    exec_.forEach((size_t)g.activeCount * kBlockNodes, kernels::ZeroNodes{g.nodes});
+    timings.sort += seconds(t0);
+  }
+  /// P2G: `k(p, nodes)` for every particle, nodes accumulating.
+  template <class K>
+  void scatter(const K& k) {
+    const auto t0 = Clock::now();
+    exec_.particleToGrid(bins_, k);
+    timings.p2g += seconds(t0);
+  }
+  /// `k(n)` for every node of the active blocks.
+  template <class K>
+  void updateGrid(const K& k) {
+    const auto t0 = Clock::now();
+    exec_.forEach((size_t)grid().activeCount * kBlockNodes, k);
+    timings.gridUpdate += seconds(t0);
+  }
+  /// Places the shapes' parts at their bodies' poses (once per substep).
+  void placeShapes() {
+    if (parts_.size() == 0) return;
+    const auto t0 = Clock::now();
+    // the contact band of a node reaches one cell beyond the part's own bounds
+    exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), geo_.dx});
+    timings.contact += seconds(t0);
+  }
+  /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
+  /// bodies: gravity for the substep (if `bodyGravity`), the predicted body velocity, the
+  /// projection of the nodes, then the bodies' velocities from what they received.
+  void exchangeContact(float dt, bool bodyGravity) {
+    const int nParts = (int)parts_.size(), nBodies = (int)bodies_.size();
+    if (nParts == 0) return;
+    const auto t0 = Clock::now();
+    if (anyDynamic_) {
+      if (bodyGravity) exec_.forEach(nBodies, kernels::AccelerateBodies{bodies_.data(), dt});
+      exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 0);
+      exec_.forEach(nBodies, kernels::PredictBodies{bodies_.data(), stepSums_.data()});
+    }
+    exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 1);
+    exec_.forEach(nBodies, kernels::SettleBodies{bodies_.data(), stepSums_.data(), record_.data()});
+    timings.contact += seconds(t0);
+  }
+  /// Advances the bodies' poses over the substep.
+  void moveShapes(float dt) {
+    if (bodies_.size() == 0) return;
+    exec_.forEach(bodies_.size(), kernels::MoveBodies{bodies_.data(), dt});
+  }
+  /// G2P: `k(p, nodes)` for every particle, returning its StepCheck.
+  template <class K>
+  void gather(const K& k) {
+    const auto t0 = Clock::now();
+    exec_.gridToParticle(bins_, k);
+    timings.g2p += seconds(t0);
   }
 
   StepCheck takeCheck() override { return exec_.takeCheck(); }

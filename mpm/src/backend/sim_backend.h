@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/constitutive.h"
+#include "core/substep.h"
 #include "core/particle_state.h"
 #include "grid/block_grid.h"
 #include "grid/grid_update.h"
@@ -25,19 +26,6 @@ struct HostParticles {
   size_t size() const { return x.size(); }
 };
 
-/// Constant inputs of one substep.
-struct SubstepParams {
-  float dt = 0;
-  Vec3f gravity;
-  WallParams walls;
-};
-
-/// Result of the per-particle checks that run inside G2P.
-struct StepCheck {
-  float maxSpeed2 = 0;                  ///< largest |v|^2 after the substep [m^2/s^2]
-  uint32_t firstBadParticle = 0xffffffffu; ///< lowest index of a non-finite or escaped particle
-};
-
 class SimBackend {
  public:
   virtual ~SimBackend() = default;
@@ -49,7 +37,7 @@ class SimBackend {
   virtual void setMaterials(const std::vector<MaterialParams>& materials) = 0;
   /// Orders particle memory by grid block so the transfers walk memory in order.
   virtual void sortParticles() = 0;
-  /// One MLS-MPM substep. Particles whose state is not finite or whose stencil left the
+  /// One substep of the scene's solver. Particles whose state is not finite or whose stencil left the
   /// grid are skipped by the transfers (never written out of bounds) and recorded.
   virtual void substep(const SubstepParams& params) = 0;
   /// The checks of the substeps since the last call (read once per advance, so the GPU
@@ -73,8 +61,8 @@ class SimBackend {
   StageTimings timings;
 };
 
-std::unique_ptr<SimBackend> makeCpuBackend(const GridGeometry& geo, int threads);
+std::unique_ptr<SimBackend> makeCpuBackend(SolverType solver, const GridGeometry& geo, int threads);
 /// Throws BackendUnavailable when built without CUDA or no device is present.
-std::unique_ptr<SimBackend> makeCudaBackend(const GridGeometry& geo);
+std::unique_ptr<SimBackend> makeCudaBackend(SolverType solver, const GridGeometry& geo);
 
 }  // namespace mpm

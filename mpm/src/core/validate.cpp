@@ -64,6 +64,22 @@ void sceneSettings(const SceneSettings& s) {
                           "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");
   atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
   atLeast("SceneSettings.cpuThreads", s.cpuThreads, 0);
+  const int solver = static_cast<int>(s.solver);
+  if (solver < 0 || solver > static_cast<int>(SolverType::PbMpm))
+    throw InvalidArgument("SceneSettings.solver", std::to_string(solver), "is not a SolverType");
+  const float flip = s.standardMpm.flipBlend;
+  if (!(flip >= 0.f && flip <= 1.f))
+    throw InvalidArgument("SceneSettings.standardMpm.flipBlend", show(flip), "must lie in [0, 1]");
+  const int iterations = s.pbMpm.iterations;
+  if (iterations < 1 || iterations > 1000)
+    throw InvalidArgument("SceneSettings.pbMpm.iterations", std::to_string(iterations), "must lie in [1, 1000]");
+  const float relax = s.pbMpm.relaxation;
+  if (!(relax > 0.f && relax < 2.f))
+    throw InvalidArgument("SceneSettings.pbMpm.relaxation", show(relax),
+                          "must lie in (0, 2) (over-relaxing beyond 2 diverges)");
+  const float beta = s.pbMpm.rigidity;
+  if (!(beta >= 0.f && beta <= 1.f))
+    throw InvalidArgument("SceneSettings.pbMpm.rigidity", show(beta), "must lie in [0, 1]");
 }
 
 void material(const std::string& prefix, const Material& m) {

@@ -22,6 +22,9 @@ struct GridNode {
   /// scene has shapes; contact uses it to tell which side of a thin shape the material
   /// is on.
   Vec3f mx;
+  /// Standard MPM only: the momentum the stress adds over the substep, dt f_int; the
+  /// node's velocity before the update (for the FLIP increment) once the grid is updated.
+  Vec3f dmv;
 };
 
 /// Geometry of the grid, shared by every kernel.

@@ -41,4 +41,13 @@ MPM_HD void gridUpdateNode(uint32_t n, const GridView& grid, float dt, Vec3f gra
   node.mv = v;
 }
 
+/// The grid update of a whole substep as a per-node kernel.
+struct GridUpdate {
+  GridView grid;
+  float dt;
+  Vec3f gravity;
+  WallParams walls;
+  MPM_HD void operator()(size_t n) const { gridUpdateNode((uint32_t)n, grid, dt, gravity, walls); }
+};
+
 }  // namespace mpm

@@ -234,14 +234,17 @@ MPM_HD void accelerateBody(BodyView& b, float dt) {
 }
 
 /// After pass 1: the body's velocity from the momentum it actually received (so total
-/// momentum is conserved exactly), then its pose advanced by dt.
-MPM_HD void finishBodySubstep(BodyView& b, const ContactSums& s, float dt) {
-  if (b.dynamic) {
-    b.linearVelocity = b.v0 + (1.f / b.mass) * Vec3f{s.impulse[0], s.impulse[1], s.impulse[2]};
-    float I[6];
-    worldInertia(b, I);
-    b.angularVelocity = b.w0 + inverseSymmetric(I) * Vec3f{s.angular[0], s.angular[1], s.angular[2]};
-  }
+/// momentum is conserved exactly).
+MPM_HD void settleBodyVelocity(BodyView& b, const ContactSums& s) {
+  if (!b.dynamic) return;
+  b.linearVelocity = b.v0 + (1.f / b.mass) * Vec3f{s.impulse[0], s.impulse[1], s.impulse[2]};
+  float I[6];
+  worldInertia(b, I);
+  b.angularVelocity = b.w0 + inverseSymmetric(I) * Vec3f{s.angular[0], s.angular[1], s.angular[2]};
+}
+
+/// At the end of a substep: the body's pose advanced by dt at its velocity.
+MPM_HD void moveBody(BodyView& b, float dt) {
   b.com += dt * b.linearVelocity;
   b.rotation = rotateBy(b.rotation, b.angularVelocity, dt);
   b.shapeOrigin = b.com - b.rotation * b.comLocal;

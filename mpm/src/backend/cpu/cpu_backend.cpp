@@ -1,11 +1,11 @@
-// Instantiates the substep for the CPU backend.
+// Instantiates every solver's substep for the CPU backend.
 #include "backend/cpu/cpu_exec.h"
-#include "backend/particle_grid_system.h"
+#include "solvers/solver_list.h"
 
 namespace mpm {
 
-std::unique_ptr<SimBackend> makeCpuBackend(const GridGeometry& geo, int threads) {
-  return std::make_unique<ParticleGridSystem<CpuExec>>(geo, threads);
+std::unique_ptr<SimBackend> makeCpuBackend(SolverType solver, const GridGeometry& geo, int threads) {
+  return makeParticleGridSystem<CpuExec>(solver, geo, threads);
 }
 
 }  // namespace mpm

@@ -43,7 +43,9 @@ struct BlockTile {
     n.mv += mv;
     n.mx += mx;
   }
+  void addStressImpulse(int i, int j, int k, Vec3f dmv) { nodes[index(i, j, k)].dmv += dmv; }
   Vec3f velocity(int i, int j, int k) const { return nodes[index(i, j, k)].mv; }
+  Vec3f oldVelocity(int i, int j, int k) const { return nodes[index(i, j, k)].dmv; }
 
   void setBlock(const GridGeometry& geo, uint32_t block) {
     geo.blockCoords(block, origin[0], origin[1], origin[2]);
@@ -156,12 +158,13 @@ struct CpuExec {
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
-            for (GridNode& n : tile.nodes) n = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}};
+            for (GridNode& n : tile.nodes) n = GridNode{};
             for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
             tile.forEachGridNode(grid, [](const GridNode& t, GridNode& g) {
               g.mass += t.mass;
               g.mv += t.mv;
               g.mx += t.mx;
+              g.dmv += t.dmv;
             });
           }
         }

@@ -1,6 +1,6 @@
-// Instantiates the substep for the CUDA backend.
+// Instantiates every solver's substep for the CUDA backend.
 #include "backend/cuda/cuda_exec.cuh"
-#include "backend/particle_grid_system.h"
+#include "solvers/solver_list.h"
 
 namespace mpm {
 
@@ -14,9 +14,9 @@ bool cudaDeviceAvailable() {
   return count > 0;
 }
 
-std::unique_ptr<SimBackend> makeCudaBackend(const GridGeometry& geo) {
+std::unique_ptr<SimBackend> makeCudaBackend(SolverType solver, const GridGeometry& geo) {
   if (!cudaDeviceAvailable()) throw BackendUnavailable("no usable CUDA device in this process");
-  return std::make_unique<ParticleGridSystem<CudaExec>>(geo);
+  return makeParticleGridSystem<CudaExec>(solver, geo);
 }
 
 }  // namespace mpm

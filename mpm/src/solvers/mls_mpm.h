@@ -1,0 +1,72 @@
+#pragma once
+// MLS-MPM (Hu et al. 2018; seed 000 eqs. 9-12, Algorithm 1). P2G fuses the APIC momentum
+// and the stress force in one affine matrix, A = m C - dt V0 M^-1 tau (tau = P F^T, the
+// Kirchhoff stress); G2P rebuilds v and C from the grid and advances F <- (I + dt C) F.
+#include "core/constitutive.h"
+#include "solvers/transfer.h"
+
+namespace mpm {
+
+struct MlsMpm {
+  /// Wave speed limits the substep (explicit in time).
+  static constexpr bool kElasticCfl = true;
+  /// Particles carry the APIC affine field C.
+  static constexpr bool kAffine = true;
+
+  template <bool kCentroid>
+  struct P2G {
+    ParticleView P;
+    GridGeometry geo;
+    const MaterialParams* materials;
+    float dt;
+    template <class Nodes>
+    MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
+      if (!geo.stencilInside(P.x[p])) return;  // a stray: reported by G2P, never written
+      const QuadraticStencil st(geo, P.x[p]);
+      const float m = P.mass[p];
+      const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
+      const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * apicInverseInertia(geo)) * tau;
+      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], affine, P.x[p], nodes);
+    }
+  };
+
+  struct G2P {
+    ParticleView P;
+    GridGeometry geo;
+    float dt;
+    const PartView* parts;
+    int nParts;
+    template <class Nodes>
+    MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
+      if (!geo.stencilInside(P.x[p])) return strayParticle(p, P);
+      const QuadraticStencil st(geo, P.x[p]);
+      Vec3f v;
+      Mat3f C;
+      apicGather(st, geo, nodes, v, C);
+      P.v[p] = v;
+      P.C[p] = C;
+      P.x[p] += dt * v;
+      P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
+      return finishParticle(p, P, geo, parts, nParts);
+    }
+  };
+
+  template <class System>
+  static void substep(System& s, const SubstepParams& p) {
+    s.binParticles();
+    s.clearGrid();
+    const ParticleView P = s.particles();
+    // a scene without shapes does not pay for the material centroid contact needs
+    if (s.hasShapes())
+      s.scatter(P2G<true>{P, s.geometry(), s.materials(), p.dt});
+    else
+      s.scatter(P2G<false>{P, s.geometry(), s.materials(), p.dt});
+    s.updateGrid(GridUpdate{s.grid(), p.dt, p.gravity, p.walls});
+    s.placeShapes();
+    s.exchangeContact(p.dt, true);
+    s.moveShapes(p.dt);
+    s.gather(G2P{P, s.geometry(), p.dt, s.parts(), s.partCount()});
+  }
+};
+
+}  // namespace mpm

@@ -1,0 +1,105 @@
+#pragma once
+// Position-based MPM (Lewin 2024; seed 000 eqs. 13-16): each substep runs `iterations`
+// P2G / grid / G2P cycles with the positions and F held at the start of the substep;
+// each G2P projects the particle's candidate deformation onto the material constraint and
+// turns the projection back into a velocity gradient C, which the next P2G spreads as
+// APIC momentum (a Jacobi-style constraint solve). After the last cycle x += dt v and
+// F <- (I + dt C) F.
+//
+// The 3D form used here, per particle with F the deformation at the start of the substep:
+//   F*  = (I + dt C) F                                    (eq. 13)
+//   R   = polar rotation of F*                            (eq. 14)
+//   F_c = beta R + (1 - beta) F* / det(F*)^(1/3)          (eq. 15; the cube root makes the
+//         second term volume preserving in 3D, as F / sqrt(det F) does in 2D)
+//   C  <- C + omega ((F_c F^-1 - I) / dt - C)             (eq. 16 when omega = 1)
+// beta = SolverParams::rigidity, omega = SolverParams::relaxation. Gravity enters in the
+// first cycle only; walls and rigid contact act in every cycle (the momentum each cycle
+// gives a shape is summed, so the exchange stays exact). The material's E and nu play no
+// part: stiffness comes from the iterations (more iterations, stiffer), as in PBD.
+#include "core/polar.h"
+#include "solvers/transfer.h"
+
+namespace mpm {
+
+struct PbMpm {
+  /// Unconditionally stable in the elastic response: only particle speed limits the step.
+  static constexpr bool kElasticCfl = false;
+  /// Particles carry the APIC affine field C.
+  static constexpr bool kAffine = true;
+
+  /// APIC P2G, no stress term.
+  template <bool kCentroid>
+  struct P2G {
+    ParticleView P;
+    GridGeometry geo;
+    template <class Nodes>
+    MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
+      if (!geo.stencilInside(P.x[p])) return;
+      const QuadraticStencil st(geo, P.x[p]);
+      const float m = P.mass[p];
+      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * P.C[p], P.x[p], nodes);
+    }
+  };
+
+  struct G2P {
+    ParticleView P;
+    GridGeometry geo;
+    float dt;
+    float relaxation;
+    float rigidity;
+    bool integrate;  ///< the last cycle: also move the particle and advance F
+    const PartView* parts;
+    int nParts;
+    template <class Nodes>
+    MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
+      if (!geo.stencilInside(P.x[p])) return strayParticle(p, P);
+      const QuadraticStencil st(geo, P.x[p]);
+      Vec3f v;
+      Mat3f C;
+      apicGather(st, geo, nodes, v, C);
+      const Mat3f I = Mat3f::identity();
+      const Mat3f F = P.F[p];
+      const Mat3f Fstar = (I + dt * C) * F;
+      const Mat3f R = polarRotation(Fstar);
+      const float J = determinant(Fstar);
+      const Mat3f isochoric = J > 0.f ? (1.f / cbrtf(J)) * Fstar : R;
+      const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
+      const Mat3f Cc = (1.f / dt) * (Fc * inverse(F) - I);
+      C = C + relaxation * (Cc - C);
+      P.v[p] = v;
+      P.C[p] = C;
+      if (integrate) {
+        P.x[p] += dt * v;
+        P.F[p] = (I + dt * C) * F;
+        return finishParticle(p, P, geo, parts, nParts);
+      }
+      StepCheck c;
+      c.maxSpeed2 = dot(v, v);
+      if (!isFinite(c.maxSpeed2 + trace(C))) c.firstBadParticle = p;
+      return c;
+    }
+  };
+
+  template <class System>
+  static void substep(System& s, const SubstepParams& p) {
+    s.binParticles();  // positions stay put until the last cycle
+    s.placeShapes();
+    const ParticleView P = s.particles();
+    const int n = p.solver.iterations;
+    for (int it = 0; it < n; ++it) {
+      s.clearGrid();
+      if (s.hasShapes())
+        s.scatter(P2G<true>{P, s.geometry()});
+      else
+        s.scatter(P2G<false>{P, s.geometry()});
+      const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
+      s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
+      s.exchangeContact(p.dt, it == 0);
+      s.gather(G2P{P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, it == n - 1, s.parts(),
+                   s.partCount()});
+    }
+    s.moveShapes(p.dt);
+  }
+};
+
+}  // namespace mpm
