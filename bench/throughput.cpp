@@ -45,8 +45,52 @@ constexpr const char* kCompiler = "unknown";
 constexpr int kWarmupFrames = 2;                   // untimed frames before each timed run
 constexpr size_t kLargeRunParticles = 500000;      // above this, --frames-large applies
 
+/// A solver as the benchmark runs it: MLS-MPM and standard MPM take CressimBench's 10
+/// substeps of 0.002 s per frame; PB-MPM one step of 0.02 s with `iterations` iterations
+/// (seed 000, section III-D).
+struct SolverCase {
+  std::string name;  ///< as given on the command line: mls, standard, pb<iterations>
+  mpm::SolverType type = mpm::SolverType::MlsMpm;
+  int iterations = 1;  ///< P2G-G2P cycles per substep (1 for the explicit solvers)
+
+  static SolverCase parse(const std::string& name) {
+    SolverCase c;
+    c.name = name;
+    if (name == "mls") return c;
+    if (name == "standard") {
+      c.type = mpm::SolverType::StandardMpm;
+      return c;
+    }
+    if (name.rfind("pb", 0) == 0 && name.size() > 2 &&
+        name.find_first_not_of("0123456789", 2) == std::string::npos) {
+      c.type = mpm::SolverType::PbMpm;
+      c.iterations = std::stoi(name.substr(2));
+      return c;
+    }
+    throw mpm::InvalidArgument("--solvers", name, "is not mls, standard or pb<iterations> (e.g. pb10)");
+  }
+  std::string label() const {
+    switch (type) {
+      case mpm::SolverType::MlsMpm: return "MLS-MPM";
+      case mpm::SolverType::StandardMpm: return "standard MPM";
+      case mpm::SolverType::PbMpm: return "PB-MPM " + std::to_string(iterations) + " it";
+    }
+    return name;
+  }
+  mpm::SceneSettings settings(int threads) const {
+    mpm::SceneSettings s = CressimBench::settings(mpm::Backend::Cpu, threads);
+    s.solver = type;
+    if (type == mpm::SolverType::PbMpm) {
+      s.pbMpm.iterations = iterations;
+      s.substeps.fixedSubsteps = 1;  // dt = 0.02 s
+    }
+    return s;
+  }
+};
+
 /// What the command line asks for.
 struct Options {
+  std::vector<std::string> solvers{"mls", "standard", "pb10", "pb20"};  ///< SolverCase names
   std::vector<float> sizes{0.5f, 1.f, 1.5f, 2.5f, 5.f};  ///< box half-sizes [m]
   std::vector<int> threads{1, 2};                          ///< CPU worker threads per run
   int frames = 100;       ///< timed frames per run
@@ -73,10 +117,13 @@ constexpr PeerFigure kCressim[] = {
     {1000000, 0.81, 0.96, 0.72},
 };
 
-/// CRESSim's serial MLS-MPM figure at exactly this particle count, or NaN.
-double cressimMlsMpm(size_t particles) {
+/// CRESSim's serial figure for this solver at exactly this particle count, or NaN.
+double cressimFigure(const SolverCase& solver, size_t particles) {
   for (const PeerFigure& f : kCressim)
-    if (f.particles == particles) return f.mlsMpm;
+    if (f.particles == particles)
+      return solver.type == mpm::SolverType::MlsMpm        ? f.mlsMpm
+             : solver.type == mpm::SolverType::StandardMpm ? f.standardMpm
+                                                           : f.pbMpm;
   return std::nan("");
 }
 
@@ -90,8 +137,9 @@ struct RunSample {
   bool abandoned = false;   ///< stopped early because the machine was busy; not a result
 };
 
-/// One table row: a half-size at a thread count, over all its repeats.
+/// One table row: a solver at a half-size and a thread count, over all its repeats.
 struct Row {
+  SolverCase solver;
   float halfSize = 0;
   size_t particles = 0;
   int threads = 0;
@@ -103,13 +151,13 @@ struct Row {
   bool summarised = false;
   double msPerFrame = 0, msMin = 0, msMax = 0;
   double cpuMsPerFrame = 0;
-  double mps = 0;  ///< million particle-substeps per second at the median time
+  double mps = 0;  ///< million particle-substeps (PB-MPM: particle-iterations) per second
   double sortShare = 0, p2gShare = 0, gridShare = 0, g2pShare = 0, otherShare = 0;  ///< [%]
   double bytesPerParticle = 0;
   double otherLoad = 0;  ///< the most CPU other processes used during one of the runs [cores]
   int redone = 0;        ///< runs redone because the machine was busy
   double speedup = std::nan("");  ///< ms/frame at 1 thread over this row's; NaN without a 1-thread row
-  double cressim = std::nan("");  ///< CRESSim serial MLS-MPM M/s at this particle count
+  double cressim = std::nan("");  ///< CRESSim's serial M/s for this solver at this particle count
 };
 
 double processCpuSeconds() {
@@ -148,7 +196,7 @@ size_t particlesAt(float halfSize) {
 /// finite, abandons the run as soon as other processes are seen to take more CPU than that.
 RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
                   long long& framesDone) {
-  mpm::Scene scene(CressimBench::settings(mpm::Backend::Cpu, row.threads));
+  mpm::Scene scene(row.solver.settings(row.threads));
   scene.addParticleObject(CressimBench::box(row.halfSize));
   for (int f = 0; f < kWarmupFrames; ++f) {
     scene.step(CressimBench::kFrameDt);
@@ -231,7 +279,7 @@ void summarise(Row& r) {
   r.msMax = *std::max_element(ms.begin(), ms.end());
   r.cpuMsPerFrame = median(cpuMs);
   const double substepsPerFrame = (double)substeps / ((double)r.frames * r.samples.size());
-  r.mps = (double)r.particles * substepsPerFrame / (1e-3 * r.msPerFrame) / 1e6;
+  r.mps = (double)r.particles * substepsPerFrame * r.solver.iterations / (1e-3 * r.msPerFrame) / 1e6;
   // shares of the timed wall time, summed over repeats; "other" is what lies outside the
   // four stages (starting the step's worker thread, the end-of-step check)
   r.sortShare = 100.0 * sort / wall;
@@ -240,15 +288,16 @@ void summarise(Row& r) {
   r.g2pShare = 100.0 * g2p / wall;
   r.otherShare = 100.0 - r.sortShare - r.p2gShare - r.gridShare - r.g2pShare;
   r.bytesPerParticle = (double)r.memoryBytes / (double)r.particles;
-  r.cressim = cressimMlsMpm(r.particles);
+  r.cressim = cressimFigure(r.solver, r.particles);
   r.summarised = true;
 }
 
-/// Speed-up of each row over the 1-thread row of the same half-size.
+/// Speed-up of each row over the 1-thread row of the same solver and half-size.
 void fillSpeedups(std::vector<Row>& rows) {
   for (Row& r : rows)
     for (const Row& one : rows)
-      if (one.halfSize == r.halfSize && one.threads == 1) r.speedup = one.msPerFrame / r.msPerFrame;
+      if (one.solver.name == r.solver.name && one.halfSize == r.halfSize && one.threads == 1)
+        r.speedup = one.msPerFrame / r.msPerFrame;
 }
 
 std::string num(double v, int decimals) {
@@ -261,12 +310,12 @@ std::string num(double v, int decimals) {
 /// The results as a markdown table.
 std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
   std::ostringstream t;
-  t << "| half-size [m] | particles | threads | frames | ms/frame | CPU ms/frame | M/s"
+  t << "| solver | half-size [m] | particles | threads | frames | ms/frame | CPU ms/frame | M/s"
        " | sort % | P2G % | grid % | G2P % | other % | bytes/particle | speed-up vs 1 thread"
-       " | CRESSim MLS-MPM M/s | ratio to CRESSim | other load [cores] |\n";
-  t << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+       " | CRESSim M/s | ratio to CRESSim | other load [cores] |\n";
+  t << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Row& r : rows) {
-    t << "| " << num(r.halfSize, 1) << " | " << r.particles << " | " << r.threads << " | "
+    t << "| " << r.solver.label() << " | " << num(r.halfSize, 1) << " | " << r.particles << " | " << r.threads << " | "
       << r.frames << " | " << num(r.msPerFrame, 2) << " | " << num(r.cpuMsPerFrame, 2) << " | "
       << num(r.mps, 2) << " | " << num(r.sortShare, 1) << " | " << num(r.p2gShare, 1) << " | "
       << num(r.gridShare, 1) << " | " << num(r.g2pShare, 1) << " | " << num(r.otherShare, 1)
@@ -279,13 +328,13 @@ std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
 
 std::string csvTable(const std::vector<Row>& rows) {
   std::ostringstream t;
-  t << "half_size_m,particles,threads,frames,repeats,ms_per_frame_median,ms_per_frame_min,"
+  t << "solver,iterations,half_size_m,particles,threads,frames,repeats,ms_per_frame_median,ms_per_frame_min,"
        "ms_per_frame_max,cpu_ms_per_frame,m_particle_substeps_per_s,sort_pct,p2g_pct,grid_pct,"
        "g2p_pct,other_pct,memory_bytes,bytes_per_particle,speedup_vs_1_thread,"
-       "cressim_mls_mpm_m_per_s,ratio_to_cressim,other_load_cores,runs_redone\n";
+       "cressim_m_per_s,ratio_to_cressim,other_load_cores,runs_redone\n";
   auto field = [](double v, int decimals) { return std::isnan(v) ? std::string() : num(v, decimals); };
   for (const Row& r : rows) {
-    t << num(r.halfSize, 3) << ',' << r.particles << ',' << r.threads << ',' << r.frames << ','
+    t << r.solver.name << ',' << r.solver.iterations << ',' << num(r.halfSize, 3) << ',' << r.particles << ',' << r.threads << ',' << r.frames << ','
       << r.samples.size() << ',' << num(r.msPerFrame, 3) << ',' << num(r.msMin, 3) << ','
       << num(r.msMax, 3) << ',' << num(r.cpuMsPerFrame, 3) << ',' << num(r.mps, 4) << ','
       << num(r.sortShare, 2) << ',' << num(r.p2gShare, 2) << ',' << num(r.gridShare, 2) << ','
@@ -359,9 +408,10 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
     << "\n\n";
   m << "Scene (BENCH_SCENES.md section 1, `mpm::scenes::CressimBench`): grid [-5.5, 5.5]^3,"
        " cell 0.2; a box of particles at spacing 0.1, mass 10 each, centred at the origin;"
-       " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0); MLS-MPM, "
+       " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0). MLS-MPM and standard MPM take "
     << CressimBench::kSubstepsPerFrame << " substeps per " << CressimBench::kFrameDt
-    << " s frame.\n\n";
+    << " s frame; PB-MPM one step of " << CressimBench::kFrameDt
+    << " s with 10 or 20 iterations (seed 000, section III-D).\n\n";
   m << "Method: each run builds a fresh scene, steps " << kWarmupFrames
     << " untimed warm-up frames, then times `frames` calls of `Scene::step(" << CressimBench::kFrameDt
     << ")` (" << opt.frames << " frames; " << opt.framesLarge << " above " << kLargeRunParticles
@@ -369,7 +419,8 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
     << " such runs (thread counts interleaved within each repeat).\n\n";
   m << "- ms/frame: median steady-clock wall time over the repeats (min and max in the CSV).\n"
        "- CPU ms/frame: median process CPU time, all threads.\n"
-       "- M/s: million particle-substeps per second at the median wall time.\n"
+       "- M/s: million particle-substeps per second at the median wall time; for PB-MPM,"
+       " particle-iterations (each iteration is a full P2G, grid update and G2P).\n"
        "- sort / P2G / grid / G2P %: the library's `StageTimings` (sort: binning particles into"
        " grid blocks, activating and clearing blocks, the per-frame reorder; grid: grid velocity"
        " update, gravity, walls; G2P includes the F update), summed over the repeats, as shares of"
@@ -378,8 +429,8 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " the particle count, after the run.\n"
        "- speed-up vs 1 thread: ms/frame of the 1-thread row of the same size, from this run,"
        " over this row's.\n"
-       "- ratio to CRESSim: this row's M/s over CRESSim-MPM's serial MLS-MPM figure at the same"
-       " particle count. CRESSim's CPU solvers are serial, so on rows with more threads the ratio"
+       "- ratio to CRESSim: this row's M/s over CRESSim-MPM's serial figure for the same solver"
+       " at the same particle count. CRESSim's CPU solvers are serial, so on rows with more threads the ratio"
        " includes our threading.\n"
        "- other load: the most CPU that other processes used during one of the row's runs"
        " (from /proc/stat), in cores. A run with more than "
@@ -421,7 +472,10 @@ void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row
 
 int main(int argc, char** argv) {
   Options opt;
-  CLI::App app{"Throughput of the CPU backend on the CRESSim scene (BENCH_SCENES.md section 1)"};
+  CLI::App app{"Throughput of the CPU backend on the CRESSim scene (BENCH_SCENES.md section 1), every solver"};
+  app.add_option("--solvers", opt.solvers, "solvers: mls, standard, pb<iterations> (e.g. pb10)")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--sizes", opt.sizes, "box half-sizes [m]; 0.5,1,1.5,2.5,5 give 1k..1M particles")
       ->delimiter(',')
       ->check(CLI::PositiveNumber)
@@ -454,6 +508,12 @@ int main(int argc, char** argv) {
   app.add_option("--out", opt.out, "path stem of the results; writes <out>.md and <out>.csv")
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  try {
+    for (const std::string& name : opt.solvers) SolverCase::parse(name);
+  } catch (const mpm::InvalidArgument& e) {
+    std::fprintf(stderr, "bench_throughput: %s\n", e.what());
+    return 2;
+  }
 
   RunInfo info;
   info.date = localDate();
@@ -468,8 +528,10 @@ int main(int argc, char** argv) {
       const size_t particles = particlesAt(half);
       const int frames = particles > kLargeRunParticles ? opt.framesLarge : opt.frames;
       const size_t first = rows.size();
+      for (const std::string& name : opt.solvers)
       for (const int threads : opt.threads) {
         Row r;
+        r.solver = SolverCase::parse(name);
         r.halfSize = half;
         r.particles = particles;
         r.threads = threads;
@@ -479,17 +541,18 @@ int main(int argc, char** argv) {
       char label[96];
       std::snprintf(label, sizeof label, "half-size %g (%zu particles)", half, particles);
       mpm::io::ProgressBar progress(
-          label, (long long)opt.repeats * (long long)opt.threads.size() * (kWarmupFrames + frames));
+          label, (long long)opt.repeats * (long long)(rows.size() - first) * (kWarmupFrames + frames));
       long long framesDone = 0;
-      // thread counts interleaved per repeat, so a change in machine load hits them alike
+      // solvers and thread counts interleaved per repeat, so a change in load hits them alike
       for (int rep = 0; rep < opt.repeats; ++rep)
         for (size_t i = first; i < rows.size(); ++i) runOnce(rows[i], opt, progress, framesDone);
       progress.finish();
       for (size_t i = first; i < rows.size(); ++i) summarise(rows[i]);
       fillSpeedups(rows);
       for (size_t i = first; i < rows.size(); ++i)
-        std::fprintf(stderr, "  %zu particles, %d thread(s): %.2f ms/frame, %.2f M/s\n",
-                     rows[i].particles, rows[i].threads, rows[i].msPerFrame, rows[i].mps);
+        std::fprintf(stderr, "  %s, %zu particles, %d thread(s): %.2f ms/frame, %.2f M/s\n",
+                     rows[i].solver.label().c_str(), rows[i].particles, rows[i].threads, rows[i].msPerFrame,
+                     rows[i].mps);
       writeResults(info, opt, rows);
     }
   } catch (const std::exception& e) {

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "backend/sim_backend.h"
-#include "solvers/mls_mpm_kernels.h"
+#include "solvers/transfer.h"
 
 namespace mpm {
 
