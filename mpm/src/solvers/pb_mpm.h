@@ -1,17 +1,19 @@
 #pragma once
 // Position-based MPM (Lewin 2024; seed 000 eqs. 13-16): each substep runs `iterations`
-// P2G / grid / G2P cycles with the positions and F held at the start of the substep;
-// each G2P projects the particle's candidate deformation onto the material constraint and
-// turns the projection back into a velocity gradient C, which the next P2G spreads as
-// APIC momentum (a Jacobi-style constraint solve). After the last cycle x += dt v and
-// F <- (I + dt C) F.
+// P2G / grid / G2P cycles with the positions and F held at the start of the substep. In
+// each P2G the particle's candidate deformation from its current velocity gradient C is
+// projected onto the material constraint and turned back into a velocity gradient, which
+// is spread as APIC momentum; G2P gathers v and C from the grid (a Jacobi-style constraint
+// solve). After the last cycle x += dt v and F <- (I + dt C) F with the gathered C, the
+// motion the particles actually make, so F keeps the deformation the constraint has not
+// yet undone.
 //
 // The 3D form used here, per particle with F the deformation at the start of the substep:
 //   F*  = (I + dt C) F                                    (eq. 13)
 //   R   = polar rotation of F*                            (eq. 14)
 //   F_c = beta R + (1 - beta) F* / det(F*)^(1/3)          (eq. 15; the cube root makes the
 //         second term volume preserving in 3D, as F / sqrt(det F) does in 2D)
-//   C  <- C + omega ((F_c F^-1 - I) / dt - C)             (eq. 16 when omega = 1)
+//   C_c = C + omega ((F_c F^-1 - I) / dt - C)             (eq. 16 when omega = 1)
 // beta = SolverParams::rigidity, omega = SolverParams::relaxation. Gravity enters in the
 // first cycle only; walls and rigid contact act in every cycle (the momentum each cycle
 // gives a shape is summed, so the exchange stays exact). The material's E and nu play no
@@ -27,17 +29,28 @@ struct PbMpm {
   /// Particles carry the APIC affine field C.
   static constexpr bool kAffine = true;
 
-  /// APIC P2G, no stress term.
+  /// The constraint projection (eqs. 13-16), then APIC P2G of the projected C.
   template <bool kCentroid>
   struct P2G {
     ParticleView P;
     GridGeometry geo;
+    float dt;
+    float relaxation;
+    float rigidity;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       if (!geo.stencilInside(P.x[p])) return;
+      const Mat3f I = Mat3f::identity();
+      const Mat3f F = P.F[p], C = P.C[p];
+      const Mat3f Fstar = (I + dt * C) * F;
+      const Mat3f R = polarRotation(Fstar);
+      const float J = determinant(Fstar);
+      const Mat3f isochoric = J > 0.f ? (1.f / cbrtf(J)) * Fstar : R;
+      const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
+      const Mat3f Cc = C + relaxation * ((1.f / dt) * (Fc * inverse(F) - I) - C);
       const QuadraticStencil st(geo, P.x[p]);
       const float m = P.mass[p];
-      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * P.C[p], P.x[p], nodes);
+      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], nodes);
     }
   };
 
@@ -45,8 +58,6 @@ struct PbMpm {
     ParticleView P;
     GridGeometry geo;
     float dt;
-    float relaxation;
-    float rigidity;
     bool integrate;  ///< the last cycle: also move the particle and advance F
     const PartView* parts;
     int nParts;
@@ -57,20 +68,11 @@ struct PbMpm {
       Vec3f v;
       Mat3f C;
       apicGather(st, geo, nodes, v, C);
-      const Mat3f I = Mat3f::identity();
-      const Mat3f F = P.F[p];
-      const Mat3f Fstar = (I + dt * C) * F;
-      const Mat3f R = polarRotation(Fstar);
-      const float J = determinant(Fstar);
-      const Mat3f isochoric = J > 0.f ? (1.f / cbrtf(J)) * Fstar : R;
-      const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
-      const Mat3f Cc = (1.f / dt) * (Fc * inverse(F) - I);
-      C = C + relaxation * (Cc - C);
       P.v[p] = v;
       P.C[p] = C;
       if (integrate) {
         P.x[p] += dt * v;
-        P.F[p] = (I + dt * C) * F;
+        P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
         return finishParticle(p, P, geo, parts, nParts);
       }
       StepCheck c;
@@ -88,15 +90,15 @@ struct PbMpm {
     const int n = p.solver.iterations;
     for (int it = 0; it < n; ++it) {
       s.clearGrid();
+      const float omega = p.solver.relaxation, beta = p.solver.rigidity;
       if (s.hasShapes())
-        s.scatter(P2G<true>{P, s.geometry()});
+        s.scatter(P2G<true>{P, s.geometry(), p.dt, omega, beta});
       else
-        s.scatter(P2G<false>{P, s.geometry()});
+        s.scatter(P2G<false>{P, s.geometry(), p.dt, omega, beta});
       const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
       s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
       s.exchangeContact(p.dt, it == 0);
-      s.gather(G2P{P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, it == n - 1, s.parts(),
-                   s.partCount()});
+      s.gather(G2P{P, s.geometry(), p.dt, it == n - 1, s.parts(), s.partCount()});
     }
     s.moveShapes(p.dt);
   }
