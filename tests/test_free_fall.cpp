@@ -8,7 +8,9 @@
 namespace mpm {
 namespace {
 
-TEST(FreeFall, CentreOfMassFollowsParabola) {
+/// Falls a block for 0.6 s and returns the largest deviation of its centre of mass from
+/// the parabola, relative to the fall.
+double parabolaDeviation(int particlesPerCellAxis) {
   SceneSettings s;
   s.domain.lower = {-0.5f, -2.5f, -0.5f};
   s.domain.upper = {0.5f, 0.5f, 0.5f};
@@ -20,6 +22,7 @@ TEST(FreeFall, CentreOfMassFollowsParabola) {
   ParticleObjectDesc d;
   d.center = {0.f, 0.2f, 0.f};
   d.halfExtents = {0.1f, 0.1f, 0.1f};
+  d.particlesPerCellAxis = particlesPerCellAxis;
   d.material.youngsModulus = 1e5f;
   const ParticleObjectId id = scene.addParticleObject(d);
   const double y0 = scene.summary(id).centerOfMass[1];
@@ -37,7 +40,19 @@ TEST(FreeFall, CentreOfMassFollowsParabola) {
     EXPECT_NEAR(sum.centerOfMass[0], 0.0, 1e-5);
     EXPECT_NEAR(sum.centerOfMass[2], 0.0, 1e-5);
   }
-  EXPECT_LT(worst, 1e-3) << "largest error relative to the fall distance " << fall << " m";
+  return worst;
+}
+
+TEST(FreeFall, CentreOfMassFollowsParabola) {
+  EXPECT_LT(parabolaDeviation(2), 1e-3) << "largest error relative to the fall distance";
+}
+
+// One particle per cell puts every particle at a cell centre, where the B-spline stencil's
+// base flips at a half-cell: binning and the transfers must agree on it to the last bit
+// (they once disagreed by one cell when the compiler fused the multiply-add in one place
+// and not the other, and the block tile was written out of range: NaN at the first step).
+TEST(FreeFall, ParticlesAtCellCentresFallLikeTheRest) {
+  EXPECT_LT(parabolaDeviation(1), 1e-3) << "largest error relative to the fall distance";
 }
 
 }  // namespace

@@ -46,9 +46,14 @@ struct GridGeometry {
   /// Lowest node of the particle's 3x3x3 quadratic B-spline stencil.
   MPM_HD void stencilBase(Vec3f x, int base[3], Vec3f& fx) const {
     for (int a = 0; a < 3; ++a) {
-      const float g = (x[a] - lower[a]) * invDx;
-      base[a] = (int)floorf(g - 0.5f);
-      fx[a] = g - (float)base[a];
+      // One explicit fused multiply-add, rounded once: written as (x - lower) * invDx - 0.5
+      // the compiler may or may not contract it, differently where it inlines this, and a
+      // particle within an ulp of a half-cell then gets one base in binning and another in
+      // P2G (its tile index out of range: seen as memory corruption with particles at cell
+      // centres). fmaf gives the same base on every path, host and device.
+      const float t = fmaf(x[a] - lower[a], invDx, -0.5f);
+      base[a] = (int)floorf(t);
+      fx[a] = (t - (float)base[a]) + 0.5f;
     }
   }
   /// Block that owns a particle for binning: the block holding its stencil base.
