@@ -27,6 +27,13 @@ struct GridNode {
   Vec3f dmv;
 };
 
+/// A node with less mass than this holds no material: it takes no velocity and no contact.
+/// Only a stencil's far corner, with a weight near 1e-39 (a particle within an ulp of a
+/// node layer), puts so little on a node; 1 / mass would overflow to inf there and turn
+/// a zero momentum into NaN. [kg]
+constexpr float kEmptyNodeMass = 1e-30f;
+MPM_HD bool holdsMaterial(const GridNode& n) { return n.mass > kEmptyNodeMass; }
+
 /// Geometry of the grid, shared by every kernel.
 struct GridGeometry {
   Vec3f lower;        ///< world position of node (0,0,0) [m]

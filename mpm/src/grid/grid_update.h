@@ -15,7 +15,7 @@ struct WallParams {
 MPM_HD void gridUpdateNode(uint32_t n, const GridView& grid, float dt, Vec3f gravity,
                            const WallParams& walls) {
   GridNode& node = grid.nodes[n];
-  if (node.mass <= 0.f) {
+  if (!holdsMaterial(node)) {
     node.mv = Vec3f{0.f, 0.f, 0.f};
     return;
   }

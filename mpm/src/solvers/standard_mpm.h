@@ -58,7 +58,7 @@ struct StandardMpm {
     WallParams walls;
     MPM_HD void operator()(size_t n) const {
       GridNode& node = grid.nodes[n];
-      const Vec3f vOld = node.mass > 0.f ? (1.f / node.mass) * node.mv : Vec3f{0.f, 0.f, 0.f};
+      const Vec3f vOld = holdsMaterial(node) ? (1.f / node.mass) * node.mv : Vec3f{0.f, 0.f, 0.f};
       node.mv += node.dmv;
       node.dmv = vOld;
       gridUpdateNode((uint32_t)n, grid, dt, gravity, walls);

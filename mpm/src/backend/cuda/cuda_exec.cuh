@@ -54,7 +54,7 @@ static __global__ void contactKernel(GridView grid, const PartView* parts, int n
   const size_t n = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
   if (n >= (size_t)grid.activeCount * kBlockNodes) return;
   GridNode& node = grid.nodes[n];
-  if (node.mass <= 0.f) return;
+  if (!holdsMaterial(node)) return;
   int bx, by, bz;
   grid.geo.blockCoords(grid.activeBlocks[n / kBlockNodes], bx, by, bz);
   const int local = (int)(n % kBlockNodes);
