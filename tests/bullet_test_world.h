@@ -1,5 +1,8 @@
 #pragma once
-// A Bullet world of either type for the coupling tests, owning what is added to it.
+// A Bullet world of either type for the coupling tests, owning what is added to it, and
+// the fixture of the suites that run for every (world type, solver) pair.
+#include <gtest/gtest.h>
+
 #include <btBulletDynamicsCommon.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
@@ -7,11 +10,32 @@
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 
 #include <memory>
+#include <string>
+#include <tuple>
 #include <vector>
+
+#include "solver_cases.h"
 
 namespace mpm::test {
 
 enum class WorldType { Discrete, MultiBody };
+
+/// The world type as it appears in test names: Discrete, MultiBody.
+inline std::string worldTypeName(WorldType t) { return t == WorldType::Discrete ? "Discrete" : "MultiBody"; }
+
+/// Fixture of a suite run for every world type and solver; instantiate it with
+/// worldTypesAndSolvers() and pairParamName(worldTypeName) ("Discrete_PbMpm").
+class WorldAndSolver : public ::testing::TestWithParam<std::tuple<WorldType, SolverType>> {
+ protected:
+  WorldType world() const { return std::get<0>(GetParam()); }
+  SolverType solver() const { return std::get<1>(GetParam()); }
+  /// "Discrete PbMpm", for printed results.
+  std::string name() const { return worldTypeName(world()) + " " + solverName(solver()); }
+};
+
+inline auto worldTypesAndSolvers() {
+  return ::testing::Combine(::testing::Values(WorldType::Discrete, WorldType::MultiBody), allSolvers());
+}
 
 /// A Bullet world of either type with gravity (0, -g, 0) and no bodies.
 struct BulletWorld {

@@ -3,7 +3,7 @@
 // Featherstone chain (btMultiBody links) following its links' velocities and resting on
 // tissue with its weight, and Bullet shapes with local scaling and compounds converted to
 // MPM geometry. The coupled cases run in a btDiscreteDynamicsWorld and a
-// btMultiBodyDynamicsWorld where both apply.
+// btMultiBodyDynamicsWorld where both apply, and with each solver, with the same bounds.
 #include <gtest/gtest.h>
 
 #include <btBulletDynamicsCommon.h>
@@ -24,6 +24,7 @@
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/shape_conversion.h"
 #include "shapes/sdf_primitives.h"
+#include "solver_cases.h"
 
 namespace mpm {
 namespace {
@@ -33,8 +34,6 @@ constexpr float kG = 9.81f;
 
 using test::BulletWorld;
 using test::WorldType;
-
-const char* worldName(WorldType t) { return t == WorldType::Discrete ? "discrete" : "multibody"; }
 
 Material softTissue() {
   Material m;
@@ -63,7 +62,7 @@ BodySum sumOf(const Scene& scene, const std::vector<ParticleObjectId>& ids) {
   return b;
 }
 
-class BulletPhysics : public ::testing::TestWithParam<WorldType> {};
+class BulletPhysics : public test::WorldAndSolver {};
 
 // ---------------------------------------------------------------------------------------
 // 1. Incline. The ramp is a static btRigidBody with a btBoxShape tilted by theta about z
@@ -81,10 +80,11 @@ struct InclineResult {
   double t1 = 0, t2 = 0;    ///< [s]
 };
 
-InclineResult runIncline(WorldType type, double theta, float mu) {
+InclineResult runIncline(WorldType type, SolverType solver, double theta, float mu) {
   BulletWorld bw(type, kG);
   const float dx = 0.01f, h = 0.5f * dx;  // 8 particles per cell
   SceneSettings st;
+  st.solver = solver;
   st.domain.lower = {-0.35f, 0.f, -0.1f};
   st.domain.upper = {0.35f, 0.5f, 0.1f};
   st.dx = dx;
@@ -146,11 +146,11 @@ InclineResult runIncline(WorldType type, double theta, float mu) {
 TEST_P(BulletPhysics, TissueSlidesDownTiltedBulletBoxWithCoulombAcceleration) {
   const double theta = 25.0 * kPi / 180.0;
   const float mu = 0.25f;
-  const InclineResult r = runIncline(GetParam(), theta, mu);
+  const InclineResult r = runIncline(world(), solver(), theta, mu);
   const double expected = kG * (std::sin(theta) - mu * std::cos(theta));
-  std::printf("%s world, incline 25 deg, mu %.2f: a = %.4f m/s^2 from v_s at t = %.3f and %.3f s "
+  std::printf("%s: incline 25 deg, mu %.2f: a = %.4f m/s^2 from v_s at t = %.3f and %.3f s "
               "(least squares %.4f), closed form %.4f\n",
-              worldName(GetParam()), mu, r.acceleration, r.t1, r.t2, r.fitted, expected);
+              name().c_str(), mu, r.acceleration, r.t1, r.t2, r.fitted, expected);
   EXPECT_NEAR(r.acceleration, expected, 0.05 * expected);
   EXPECT_NEAR(r.fitted, expected, 0.05 * expected);
 }
@@ -159,9 +159,9 @@ TEST_P(BulletPhysics, TissueSlidesDownTiltedBulletBoxWithCoulombAcceleration) {
 // acceleration above would reach 0.04 m/s within the window.
 TEST_P(BulletPhysics, TissueHoldsOnTiltedBulletBoxBelowTheFrictionAngle) {
   const double theta = 25.0 * kPi / 180.0;
-  const InclineResult r = runIncline(GetParam(), theta, 0.7f);
-  std::printf("%s world, incline 25 deg, mu 0.70: max |v_s| = %.5f m/s, travel %.2e m over %.3f-%.3f s\n",
-              worldName(GetParam()), r.maxSpeed, r.travel, r.t1, r.t2);
+  const InclineResult r = runIncline(world(), solver(), theta, 0.7f);
+  std::printf("%s: incline 25 deg, mu 0.70: max |v_s| = %.5f m/s, travel %.2e m over %.3f-%.3f s\n",
+              name().c_str(), r.maxSpeed, r.travel, r.t1, r.t2);
   EXPECT_LT(r.maxSpeed, 0.01);
   EXPECT_LT(std::fabs(r.travel), 1e-3);
 }
@@ -174,8 +174,9 @@ TEST_P(BulletPhysics, TissueHoldsOnTiltedBulletBoxBelowTheFrictionAngle) {
 // is float rounding only; 1% of |p0| is the stated bound.
 
 TEST_P(BulletPhysics, SphereHittingFreeTissueConservesTotalMomentum) {
-  BulletWorld bw(GetParam(), 0.f);
+  BulletWorld bw(world(), 0.f);
   SceneSettings st;
+  st.solver = solver();
   st.domain.lower = {-0.3f, -0.3f, -0.3f};
   st.domain.upper = {0.3f, 0.3f, 0.3f};
   st.domain.walls = false;
@@ -217,17 +218,18 @@ TEST_P(BulletPhysics, SphereHittingFreeTissueConservesTotalMomentum) {
 
   const ObjectSummary s = scene.summary(block);
   const double sphereP = mass * sphere->getLinearVelocity().x();
-  std::printf("%s world, sphere on free tissue over %d ticks: p0 = (%.5f, %.5f, %.5f) kg m/s; sphere p_x %.5f, "
+  std::printf("%s: sphere on free tissue over %d ticks: p0 = (%.5f, %.5f, %.5f) kg m/s; sphere p_x %.5f, "
               "tissue p = (%.5f, %.5f, %.5f); largest |p - p0| = %.2e (%.4f%% of |p0|)\n",
-              worldName(GetParam()), ticks, p0[0], p0[1], p0[2], sphereP, s.momentum[0], s.momentum[1],
+              name().c_str(), ticks, p0[0], p0[1], p0[2], sphereP, s.momentum[0], s.momentum[1],
               s.momentum[2], drift, 100 * drift / p0Norm);
   EXPECT_LT(drift, 0.01 * p0Norm) << "total momentum drift";
   EXPECT_GT(s.momentum[0], 0.5 * p0[0]) << "the sphere hit and handed on most of its momentum";
   EXPECT_LT(sphereP, 0.5 * p0[0]);
 }
 
-INSTANTIATE_TEST_SUITE_P(WorldTypes, BulletPhysics, ::testing::Values(WorldType::Discrete, WorldType::MultiBody),
-                         [](const auto& info) { return info.param == WorldType::Discrete ? "Discrete" : "MultiBody"; });
+INSTANTIATE_TEST_SUITE_P(WorldTypesAndSolvers, BulletPhysics,
+                         test::worldTypesAndSolvers(),
+                         test::pairParamName(test::worldTypeName));
 
 // ---------------------------------------------------------------------------------------
 // 3. Featherstone links (btMultiBodyDynamicsWorld only): a floating-base chain of three
@@ -311,9 +313,10 @@ struct ChainOnTissue {
   float top = 0;                 ///< tissue top at the start [m]
 };
 
-ChainOnTissue runChainOnTissue(double seconds) {
+ChainOnTissue runChainOnTissue(SolverType solver, double seconds) {
   BulletWorld bw(WorldType::MultiBody, kG);
   SceneSettings st;
+  st.solver = solver;
   st.domain.lower = {-0.24f, -0.1f, -0.14f};
   st.domain.upper = {0.24f, 0.3f, 0.14f};
   st.dx = 0.02f;
@@ -367,9 +370,9 @@ ChainOnTissue runChainOnTissue(double seconds) {
     links[i]->getCollisionShape()->getAabb(links[i]->getWorldTransform(), lo, hi);
     r.bottom[i] = (float)lo.y();
   }
-  std::printf("chain on tissue, %.1f s: time-averaged coupling force %.4f N over %.3f s, weight %.4f N (%+.2f%%); "
+  std::printf("%s: chain on tissue, %.1f s: time-averaged coupling force %.4f N over %.3f s, weight %.4f N (%+.2f%%); "
               "base sinking at %.2f mm/s; base speed %.4f m/s, joint rates %.4f, %.4f rad/s\n",
-              seconds, r.force, r.averagedOver, r.weight, 100 * (r.force - r.weight) / r.weight, 1e3 * r.sinkSpeed,
+              test::solverName(solver).c_str(), seconds, r.force, r.averagedOver, r.weight, 100 * (r.force - r.weight) / r.weight, 1e3 * r.sinkSpeed,
               r.baseSpeed, r.jointRate[0], r.jointRate[1]);
   for (int i = 0; i < 3; ++i)
     std::printf("  box %d: bottom %.4f m, highest particle under it %.4f m, tissue top at start %.4f m\n", i,
@@ -380,8 +383,10 @@ ChainOnTissue runChainOnTissue(double seconds) {
 // Over 0.8 s it comes to rest on the tissue, its boxes no more than half a cell into it
 // (measured from the highest particle under each box and from the tissue's top), and
 // averaged over 0.4-0.8 s the coupling forces on its colliders carry its weight within 3%.
-TEST(BulletMultiBodyLinks, ChainRestsOnTissueWithItsWeight) {
-  const ChainOnTissue r = runChainOnTissue(0.8);
+class BulletMultiBodyChain : public ::testing::TestWithParam<SolverType> {};
+
+TEST_P(BulletMultiBodyChain, ChainRestsOnTissueWithItsWeight) {
+  const ChainOnTissue r = runChainOnTissue(GetParam(), 0.8);
   const float dx = 0.02f;
   ASSERT_GT(r.averagedOver, 0.3);
   EXPECT_NEAR(r.force, r.weight, 0.03 * r.weight) << "time-averaged coupling force [N]";
@@ -398,12 +403,14 @@ TEST(BulletMultiBodyLinks, ChainRestsOnTissueWithItsWeight) {
 // after the contact response (the first version of shape_kernels.h), a resting body
 // stepped g h^2 into the tissue every substep h and sank at about g h (3.4 mm/s here,
 // h = 0.35 ms); with gravity before the contact it stays (measured under 0.05 mm over 1.6 s).
-TEST(BulletMultiBodyLinks, RestingChainDoesNotSinkIntoTissue) {
-  const ChainOnTissue r = runChainOnTissue(2.0);
+TEST_P(BulletMultiBodyChain, RestingChainDoesNotSinkIntoTissue) {
+  const ChainOnTissue r = runChainOnTissue(GetParam(), 2.0);
   EXPECT_LT(std::fabs(r.sinkSpeed), 0.5e-3) << "a resting chain must not keep moving into the tissue [m/s]";
   for (int i = 0; i < 3; ++i)
     EXPECT_GT(r.bottom[i] - r.surface[i], -0.25f * 0.02f) << "box " << i << " went into the tissue";
 }
+
+INSTANTIATE_TEST_SUITE_P(AllSolvers, BulletMultiBodyChain, test::allSolvers(), test::solverParamName());
 
 // ---------------------------------------------------------------------------------------
 // 4. Shape conversion with local scaling and compounds. Bullet's own answer for a convex

@@ -2,7 +2,8 @@
 // on an incline, a bonded grasper lifting tissue while a sticky one lets go, tissue held
 // by a plate half a cell thick, and the drag coefficient of a sphere ploughing through
 // tissue, with the impulse the shape records balancing the tissue's momentum. Each case
-// runs on the CPU and, where a device exists, on CUDA.
+// runs with each solver on the CPU and, where a device exists, on CUDA; per-solver bounds
+// are stated where a solver needs its own.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include "mpm/scene.h"
+#include "solver_cases.h"
 
 namespace mpm {
 namespace {
@@ -18,11 +20,23 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr float kG = 9.81f;
 
-class Contact : public ::testing::TestWithParam<Backend> {
+std::string backendName(Backend b) { return b == Backend::Cpu ? "Cpu" : b == Backend::Cuda ? "Cuda" : "Auto"; }
+
+class Contact : public ::testing::TestWithParam<std::tuple<Backend, SolverType>> {
  protected:
   void SetUp() override {
-    if (GetParam() == Backend::Cuda && !cudaDeviceAvailable()) GTEST_SKIP() << "no CUDA device: GPU case skipped";
+    if (backend() == Backend::Cuda && !cudaDeviceAvailable()) GTEST_SKIP() << "no CUDA device: GPU case skipped";
   }
+  Backend backend() const { return std::get<0>(GetParam()); }
+  SolverType solver() const { return std::get<1>(GetParam()); }
+  /// Scene settings with this case's backend and solver, the rest default.
+  SceneSettings base() const {
+    SceneSettings s;
+    s.backend = backend();
+    s.solver = solver();
+    return s;
+  }
+  std::string name() const { return backendName(backend()) + " " + test::solverName(solver()); }
 };
 
 /// Rotation by `angle` [rad] about the world z axis.
@@ -72,10 +86,8 @@ struct InclineResult {
   double travel = 0;        ///< CoM displacement along s over the window [m]
 };
 
-InclineResult runIncline(Backend backend, double theta, float mu) {
+InclineResult runIncline(SceneSettings st, double theta, float mu) {
   const float dx = 0.01f, h = 0.5f * dx;  // 8 particles per cell
-  SceneSettings st;
-  st.backend = backend;
   st.domain.lower = {-0.35f, 0.f, -0.1f};
   st.domain.upper = {0.35f, 0.5f, 0.1f};
   st.dx = dx;
@@ -132,19 +144,25 @@ InclineResult runIncline(Backend backend, double theta, float mu) {
 TEST_P(Contact, InclineSlidesWithCoulombAcceleration) {
   const double theta = 25.0 * kPi / 180.0;
   const float mu = 0.25f;
-  const InclineResult r = runIncline(GetParam(), theta, mu);
+  const InclineResult r = runIncline(base(), theta, mu);
   const double expected = kG * (std::sin(theta) - mu * std::cos(theta));
-  std::printf("incline 25 deg, mu %.2f: a = %.4f m/s^2, closed form %.4f\n", mu, r.acceleration, expected);
+  std::printf("%s: incline 25 deg, mu %.2f: a = %.4f m/s^2, closed form %.4f\n", name().c_str(), mu, r.acceleration,
+              expected);
   EXPECT_NEAR(r.acceleration, expected, 0.05 * expected);
 }
 
 // tan 25 deg = 0.466 < mu = 0.7: at rest. Sliding at even a tenth of the closed-form
-// acceleration above would reach 0.05 m/s within the window.
+// acceleration above would reach 0.05 m/s within the window. PB-MPM (one 10 ms substep per
+// frame here) leaves the block rocking along the slope on its stuck base, undamped: v_s
+// swings by +-0.0075 m/s with a period of about 0.11 s, 0.0128 m/s at the first frame,
+// while the travel stays within +-2.1e-4 m and does not drift. Bound 0.02 m/s for it,
+// still well below what sliding would reach; the travel bound is the same for all.
 TEST_P(Contact, InclineHoldsBelowTheFrictionAngle) {
   const double theta = 25.0 * kPi / 180.0;
-  const InclineResult r = runIncline(GetParam(), theta, 0.7f);
-  std::printf("incline 25 deg, mu 0.70: max |v_s| = %.5f m/s, travel %.2e m\n", r.maxSpeed, r.travel);
-  EXPECT_LT(r.maxSpeed, 0.01);
+  const InclineResult r = runIncline(base(), theta, 0.7f);
+  std::printf("%s: incline 25 deg, mu 0.70: max |v_s| = %.5f m/s, travel %.2e m\n", name().c_str(), r.maxSpeed,
+              r.travel);
+  EXPECT_LT(r.maxSpeed, solver() == SolverType::PbMpm ? 0.02 : 0.01);
   EXPECT_LT(std::fabs(r.travel), 1e-3);
 }
 
@@ -159,10 +177,8 @@ struct GraspResult {
   double jawRise = 0, tissueRise = 0;  ///< [m]
 };
 
-GraspResult runGrasp(Backend backend, ContactMode mode) {
+GraspResult runGrasp(SceneSettings st, ContactMode mode) {
   const float dx = 0.01f;
-  SceneSettings st;
-  st.backend = backend;
   st.domain.lower = {-0.15f, 0.f, -0.15f};
   st.domain.upper = {0.15f, 0.3f, 0.15f};
   st.domain.wallMode = WallMode::Separate;
@@ -201,16 +217,16 @@ GraspResult runGrasp(Backend backend, ContactMode mode) {
 }
 
 TEST_P(Contact, BondedJawLiftsTissue) {
-  const GraspResult r = runGrasp(GetParam(), ContactMode::Bonded);
-  std::printf("bonded jaw: rise %.5f m, tissue CoM rise %.5f m (%.1f%%)\n", r.jawRise, r.tissueRise,
+  const GraspResult r = runGrasp(base(), ContactMode::Bonded);
+  std::printf("%s: bonded jaw: rise %.5f m, tissue CoM rise %.5f m (%.1f%%)\n", name().c_str(), r.jawRise, r.tissueRise,
               100 * r.tissueRise / r.jawRise);
   EXPECT_NEAR(r.jawRise, 0.05, 1e-4) << "a kinematic shape moves on with its velocity";
   EXPECT_GT(r.tissueRise, 0.8 * r.jawRise);
 }
 
 TEST_P(Contact, StickyJawLetsGo) {
-  const GraspResult r = runGrasp(GetParam(), ContactMode::Sticky);
-  std::printf("sticky jaw: rise %.5f m, tissue CoM rise %.5f m (%.1f%%)\n", r.jawRise, r.tissueRise,
+  const GraspResult r = runGrasp(base(), ContactMode::Sticky);
+  std::printf("%s: sticky jaw: rise %.5f m, tissue CoM rise %.5f m (%.1f%%)\n", name().c_str(), r.jawRise, r.tissueRise,
               100 * r.tissueRise / r.jawRise);
   EXPECT_NEAR(r.jawRise, 0.05, 1e-4);
   EXPECT_LT(std::fabs(r.tissueRise), 0.1 * r.jawRise);
@@ -235,10 +251,8 @@ struct PlateResult {
   double room = 0;          ///< extent it has room for [m]
 };
 
-PlateResult runPlate(Backend backend, float offsetCells, float halfCells, bool pushed) {
+PlateResult runPlate(SceneSettings st, float offsetCells, float halfCells, bool pushed) {
   const float dx = 0.01f;
-  SceneSettings st;
-  st.backend = backend;
   st.domain.lower = {-0.15f, 0.f, -0.15f};
   st.domain.upper = {0.15f, 0.3f, 0.15f};
   st.dx = dx;
@@ -302,10 +316,10 @@ PlateResult runPlate(Backend backend, float offsetCells, float halfCells, bool p
   for (const Vec3f& p : x) lo = std::fmin(lo, p.y), hi = std::fmax(hi, p.y);
   r.thickness = hi - lo;
   r.momentum = scene.summary(tissue).momentum[1];
-  std::printf("%s, plate half-height %.2f dx, centre %.2f dx above a node layer: %d particles beyond "
+  std::printf("%s: %s, plate half-height %.2f dx, centre %.2f dx above a node layer: %d particles beyond "
               "(%d ever); plate impulse %.4f N s; tissue momentum %.4f -> %.4f kg m/s; thickness %.4f m "
               "of %.4f\n",
-              pushed ? "pushed 1 m/s" : "thrown 3 m/s", halfCells, offsetCells, r.beyond, r.everBeyond,
+              test::solverName(st.solver).c_str(), pushed ? "pushed 1 m/s" : "thrown 3 m/s", halfCells, offsetCells, r.beyond, r.everBeyond,
               r.plateImpulse, r.momentum0, r.momentum, r.thickness, r.room);
   return r;
 }
@@ -322,17 +336,17 @@ void expectPlateHolds(const PlateResult& r, bool pushed, float offsetCells) {
 
 TEST_P(Contact, ThickPlateHoldsTissue) {
   for (bool pushed : {false, true})
-    for (float offset : {0.f, 0.5f}) expectPlateHolds(runPlate(GetParam(), offset, 1.f, pushed), pushed, offset);
+    for (float offset : {0.f, 0.5f}) expectPlateHolds(runPlate(base(), offset, 1.f, pushed), pushed, offset);
 }
 
 TEST_P(Contact, ThinPlateHoldsThrownTissue) {
   for (float offset : {0.f, 0.25f, 0.5f, 0.75f})
-    expectPlateHolds(runPlate(GetParam(), offset, 0.25f, false), false, offset);
+    expectPlateHolds(runPlate(base(), offset, 0.25f, false), false, offset);
 }
 
 TEST_P(Contact, ThinPlateHoldsPushedTissue) {
   for (float offset : {0.f, 0.25f, 0.5f, 0.75f})
-    expectPlateHolds(runPlate(GetParam(), offset, 0.25f, true), true, offset);
+    expectPlateHolds(runPlate(base(), offset, 0.25f, true), true, offset);
 }
 
 // ---------------------------------------------------------------------------------------
@@ -341,18 +355,21 @@ TEST_P(Contact, ThinPlateHoldsPushedTissue) {
 // contact with c_d = 1 removes only the normal approach, and the sphere slips through;
 // c_d = 0 also removes the tangential slip of approaching nodes and drags the block along,
 // so it gains more momentum. The shape is the only momentum source, so the impulse it
-// records, summed over the advances, is minus the tissue's momentum change.
+// records, summed over the advances, is minus the tissue's momentum change. PB-MPM's
+// stiffness is not E: at the 0.75 ms substeps the sphere's speed sets, its block is far
+// stiffer than 2e4 Pa and is knocked ahead of the sphere rather than ploughed (measured
+// tissue momentum 1.15 and 1.44 kg m/s for c_d = 1 and 0, against 0.22 and 1.09 for
+// MLS-MPM); the same checks hold. The grid reaches x = 0.45 m so that the knocked block
+// stays on it (the walls are off).
 
 struct DragResult {
   double tissueMomentum[3] = {0, 0, 0};  ///< change over the run [kg m/s]
   double impulse[3] = {0, 0, 0};         ///< sum of ShapeImpulse::linear [N s]
 };
 
-DragResult runDrag(Backend backend, float drag) {
-  SceneSettings st;
-  st.backend = backend;
+DragResult runDrag(SceneSettings st, float drag) {
   st.domain.lower = {-0.25f, -0.25f, -0.25f};
-  st.domain.upper = {0.25f, 0.25f, 0.25f};
+  st.domain.upper = {0.45f, 0.25f, 0.25f};
   st.domain.walls = false;
   st.dx = 0.01f;
   st.gravity = {0.f, 0.f, 0.f};
@@ -387,15 +404,15 @@ DragResult runDrag(Backend backend, float drag) {
   scene.readPositions(tissue, x);
   float lo = 1e9f, hi = -1e9f;
   for (const Vec3f& p : x) lo = std::fmin(lo, p.x), hi = std::fmax(hi, p.x);
-  std::printf("drag c_d = %.0f: tissue dp (%.5f, %.5f, %.5f), shape impulse (%.5f, %.5f, %.5f) N s; tissue x in "
+  std::printf("%s: drag c_d = %.0f: tissue dp (%.5f, %.5f, %.5f), shape impulse (%.5f, %.5f, %.5f) N s; tissue x in "
               "[%.3f, %.3f], sphere centre at %.3f\n",
-              drag, r.tissueMomentum[0], r.tissueMomentum[1], r.tissueMomentum[2], r.impulse[0], r.impulse[1],
+              test::solverName(st.solver).c_str(), drag, r.tissueMomentum[0], r.tissueMomentum[1], r.tissueMomentum[2], r.impulse[0], r.impulse[1],
               r.impulse[2], lo, hi, scene.shapeState(id).pose.position.x);
   return r;
 }
 
 TEST_P(Contact, DragZeroCarriesTissueAndImpulseBalancesMomentum) {
-  const DragResult slip = runDrag(GetParam(), 1.f), stick = runDrag(GetParam(), 0.f);
+  const DragResult slip = runDrag(base(), 1.f), stick = runDrag(base(), 0.f);
   EXPECT_GT(stick.tissueMomentum[0], slip.tissueMomentum[0]);
   for (const DragResult* r : {&slip, &stick}) {
     const double p = std::fabs(r->tissueMomentum[0]);
@@ -403,10 +420,9 @@ TEST_P(Contact, DragZeroCarriesTissueAndImpulseBalancesMomentum) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, Contact, ::testing::Values(Backend::Cpu, Backend::Cuda),
-                         [](const ::testing::TestParamInfo<Backend>& info) {
-                           return info.param == Backend::Cpu ? std::string("Cpu") : std::string("Cuda");
-                         });
+INSTANTIATE_TEST_SUITE_P(BackendsAndSolvers, Contact,
+                         ::testing::Combine(::testing::Values(Backend::Cpu, Backend::Cuda), test::allSolvers()),
+                         test::pairParamName(backendName));
 
 }  // namespace
 }  // namespace mpm

@@ -13,18 +13,12 @@
 #include "mpm/error.h"
 #include "mpm/scene.h"
 #include "scenes/standard_scenes.h"
+#include "solver_cases.h"
 
 namespace mpm {
 namespace {
 
-std::string solverName(SolverType t) {
-  switch (t) {
-    case SolverType::MlsMpm: return "MlsMpm";
-    case SolverType::StandardMpm: return "StandardMpm";
-    case SolverType::PbMpm: return "PbMpm";
-  }
-  return "?";
-}
+using test::solverName;
 
 class Solvers : public ::testing::TestWithParam<SolverType> {};
 
@@ -60,7 +54,7 @@ TEST_P(Solvers, FreeFallFollowsTheParabola) {
 // 0.5 s (a quarter turn): MLS-MPM keeps it to rounding (APIC, 1% bound; measured 6e-7).
 // PB-MPM's transfers are APIC too, but its per-particle constraint projection replaces C,
 // spin part included, without balancing the torques (Jacobi PBD does not conserve angular
-// momentum): measured 3.5% lost, bound 5%. Standard MPM has no affine field: each P2G keeps
+// momentum): measured 3.8% lost, bound 5%. Standard MPM has no affine field: each P2G keeps
 // the grid's angular momentum but drops the particles' spin about their own positions,
 // and the PIC share of the update (5%) feeds that loss back every substep: measured 78%
 // lost, bound 90% (use MLS-MPM or PB-MPM where rotation matters).
@@ -86,14 +80,10 @@ TEST_P(Solvers, MomentumOfASpinningBlock) {
   const double lErr = std::abs(b.angularMomentum[2] - a.angularMomentum[2]) / std::abs(a.angularMomentum[2]);
   std::printf("%s: momentum error %.3g, angular momentum change %.3g\n", solverName(GetParam()).c_str(), pErr, lErr);
   EXPECT_LT(pErr, 1e-4);
-  const double lBound =
-      GetParam() == SolverType::StandardMpm ? 0.90 : GetParam() == SolverType::PbMpm ? 0.05 : 0.01;
-  EXPECT_LT(lErr, lBound);
+  EXPECT_LT(lErr, test::perSolver(GetParam(), 0.01, 0.90, 0.05));
 }
 
-INSTANTIATE_TEST_SUITE_P(AllSolvers, Solvers,
-                         ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::PbMpm),
-                         [](const auto& info) { return solverName(info.param); });
+INSTANTIATE_TEST_SUITE_P(AllSolvers, Solvers, test::allSolvers(), test::solverParamName());
 
 /// Centre-of-mass height of a soft block dropped on the floor, per frame.
 std::vector<double> bounce(SolverType solver) {
@@ -167,16 +157,15 @@ double pbSag(int iterations) {
 }
 
 // PB-MPM's stiffness comes from its iterations: the more, the less the column sags.
-// Measured 58%, 54% and 48% of its height at 5, 10 and 20 iterations with one 10 ms step
-// per frame: a Jacobi solve moves information about a cell per iteration, so an 8-cell
-// column never converges within a step and creeps under gravity (PB-MPM's stiffness is
-// not E; more substeps or iterations make it stiffer).
+// Measured 13.1%, 9.2% and 6.4% of its height at 5, 10 and 20 iterations with one 10 ms
+// step per frame (a Jacobi solve carries information about a cell per iteration, so an
+// 8-cell column is not converged within a step; more iterations or substeps, stiffer).
 TEST(PbMpm, StiffnessRisesWithIterations) {
   const double s5 = pbSag(5), s10 = pbSag(10), s20 = pbSag(20);
   std::printf("PB-MPM column sag (of its height): 5 it %.4f, 10 it %.4f, 20 it %.4f\n", s5, s10, s20);
   EXPECT_GT(s20, 0.0);
-  EXPECT_GT(s5, 1.05 * s10);
-  EXPECT_GT(s10, 1.05 * s20);
+  EXPECT_GT(s5, 1.2 * s10);
+  EXPECT_GT(s10, 1.2 * s20);
 }
 
 // The CRESSim bench scene (1k particles) at dt = 0.02 s, one substep per frame, for 20 s

@@ -1,18 +1,23 @@
 // Domain walls: material never passes them, slip walls keep tangential motion, sticky
-// walls stop it.
+// walls stop it. Every solver, with the same bounds.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
 #include "mpm/scene.h"
+#include "solver_cases.h"
 
 namespace mpm {
 namespace {
 
-SceneSettings floorBox(WallMode mode) {
+using test::solverName;
+
+SceneSettings floorBox(SolverType solver, WallMode mode) {
   SceneSettings s;
+  s.solver = solver;
   s.domain.lower = {-0.5f, 0.f, -0.5f};
   s.domain.upper = {0.5f, 1.f, 0.5f};
   s.domain.wallMode = mode;
@@ -31,9 +36,11 @@ ParticleObjectDesc slidingBlock(float height) {
   return d;
 }
 
-TEST(Walls, DroppedBlockNeverPassesTheFloor) {
+class Walls : public ::testing::TestWithParam<SolverType> {};
+
+TEST_P(Walls, DroppedBlockNeverPassesTheFloor) {
   for (WallMode mode : {WallMode::Sticky, WallMode::Slip, WallMode::Separate}) {
-    Scene scene(floorBox(mode));
+    Scene scene(floorBox(GetParam(), mode));
     ParticleObjectDesc d;
     d.center = {0.f, 0.5f, 0.f};
     d.halfExtents = {0.1f, 0.1f, 0.1f};
@@ -47,14 +54,15 @@ TEST(Walls, DroppedBlockNeverPassesTheFloor) {
       scene.readPositions(id, x);
       for (const Vec3f& p : x) lowest = std::min(lowest, p.y);
     }
+    std::printf("%s, wall mode %d: lowest particle %.4f m\n", solverName(GetParam()).c_str(), (int)mode, lowest);
     // the wall acts on nodes 0 and 1: nothing may get below the second node, y = dx
     EXPECT_GT(lowest, 0.04f) << "wall mode " << static_cast<int>(mode);
   }
 }
 
 // Mean x travel of the block's bottom particle layer over 0.3 s of sliding.
-double bottomLayerTravel(WallMode mode, double* velocity) {
-  Scene scene(floorBox(mode));
+double bottomLayerTravel(SolverType solver, WallMode mode, double* velocity) {
+  Scene scene(floorBox(solver, mode));
   // resting on the floor: bottom particles at y = 2 dx + h/2, inside the wall's reach
   const ParticleObjectId id = scene.addParticleObject(slidingBlock(0.08f + 0.05f));
   std::vector<Vec3f> x0, x;
@@ -69,28 +77,30 @@ double bottomLayerTravel(WallMode mode, double* velocity) {
     if (x0[i].y < yMin + 1e-4f) travel += x[i].x - x0[i].x, ++n;
   const ObjectSummary s = scene.summary(id);
   *velocity = s.momentum[0] / s.mass;
+  std::printf("%s, wall mode %d: bottom layer travel %.4f m, block velocity %.4f m/s\n", solverName(solver).c_str(),
+              (int)mode, travel / n, *velocity);
   return travel / n;
 }
 
-TEST(Walls, SlipFloorKeepsSlidingVelocity) {
+TEST_P(Walls, SlipFloorKeepsSlidingVelocity) {
   double v;
-  const double travel = bottomLayerTravel(WallMode::Slip, &v);
+  const double travel = bottomLayerTravel(GetParam(), WallMode::Slip, &v);
   EXPECT_NEAR(v, 0.5, 0.01) << "frictionless: horizontal velocity kept";
   EXPECT_NEAR(travel, 0.15, 0.01) << "the bottom slides with the block";
 }
 
-TEST(Walls, StickyFloorHoldsTheBottomLayer) {
+TEST_P(Walls, StickyFloorHoldsTheBottomLayer) {
   double v;
-  const double travel = bottomLayerTravel(WallMode::Sticky, &v);
+  const double travel = bottomLayerTravel(GetParam(), WallMode::Sticky, &v);
   EXPECT_LT(std::abs(travel), 0.015) << "bottom layer held (slip floor: 0.15 m)";
   EXPECT_LT(std::abs(v), 0.25) << "the block's sliding momentum is mostly taken by the wall";
 }
 
-TEST(Walls, SeparateWallLetsMaterialLeave) {
+TEST_P(Walls, SeparateWallLetsMaterialLeave) {
   // no gravity, a block resting on the floor moving upward: a separating wall lets it go
   // with its momentum; a slip wall holds the nodes it touches and takes momentum away
-  auto rise = [](WallMode mode) {
-    SceneSettings s = floorBox(mode);
+  auto rise = [this](WallMode mode) {
+    SceneSettings s = floorBox(GetParam(), mode);
     s.gravity = {0.f, 0.f, 0.f};
     Scene scene(s);
     ParticleObjectDesc d = slidingBlock(0.08f + 0.05f);
@@ -101,9 +111,13 @@ TEST(Walls, SeparateWallLetsMaterialLeave) {
     return sum.momentum[1] / sum.mass;
   };
   const double separate = rise(WallMode::Separate), slip = rise(WallMode::Slip);
+  std::printf("%s: rising block velocity after 0.1 s: separate wall %.4f m/s, slip wall %.4f m/s\n",
+              solverName(GetParam()).c_str(), separate, slip);
   EXPECT_NEAR(separate, 1.0, 0.01);
   EXPECT_LT(slip, separate - 0.02);
 }
+
+INSTANTIATE_TEST_SUITE_P(AllSolvers, Walls, test::allSolvers(), test::solverParamName());
 
 }  // namespace
 }  // namespace mpm
