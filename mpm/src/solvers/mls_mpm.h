@@ -53,19 +53,9 @@ struct MlsMpm {
 
   template <class System>
   static void substep(System& s, const SubstepParams& p) {
-    s.binParticles();
-    s.clearGrid();
     const ParticleView P = s.particles();
-    // a scene without shapes does not pay for the material centroid contact needs
-    if (s.hasShapes())
-      s.scatter(P2G<true>{P, s.geometry(), s.materials(), p.dt});
-    else
-      s.scatter(P2G<false>{P, s.geometry(), s.materials(), p.dt});
-    s.updateGrid(GridUpdate{s.grid(), p.dt, p.gravity, p.walls});
-    s.placeShapes();
-    s.exchangeContact(p.dt, true);
-    s.moveShapes(p.dt);
-    s.gather(G2P{P, s.geometry(), p.dt, s.parts(), s.partCount()});
+    explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, s.parts(), s.partCount()}, P, s.geometry(),
+                                     s.materials(), p.dt);
   }
 };
 

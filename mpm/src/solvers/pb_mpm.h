@@ -90,11 +90,7 @@ struct PbMpm {
     const int n = p.solver.iterations;
     for (int it = 0; it < n; ++it) {
       s.clearGrid();
-      const float omega = p.solver.relaxation, beta = p.solver.rigidity;
-      if (s.hasShapes())
-        s.scatter(P2G<true>{P, s.geometry(), p.dt, omega, beta});
-      else
-        s.scatter(P2G<false>{P, s.geometry(), p.dt, omega, beta});
+      scatterParticles<P2G>(s, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity);
       const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
       s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
       s.exchangeContact(p.dt, it == 0);

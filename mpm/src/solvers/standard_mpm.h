@@ -27,26 +27,17 @@ struct StandardMpm {
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       if (!geo.stencilInside(P.x[p])) return;
       const QuadraticStencil st(geo, P.x[p]);
-      float dw[3][3];
-      st.gradients(geo.invDx, dw);
       const float m = P.mass[p];
       const Vec3f mv = m * P.v[p], xp = P.x[p];
       // dt f_i = -dt V0 tau grad w_i
       const Mat3f impulse = (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]);
-      const float(&w)[3][3] = st.w;
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          for (int k = 0; k < 3; ++k) {
-            const float wt = w[0][i] * w[1][j] * w[2][k];
-            const Vec3f grad{dw[0][i] * w[1][j] * w[2][k], w[0][i] * dw[1][j] * w[2][k],
-                             w[0][i] * w[1][j] * dw[2][k]};
-            const int a = st.base[0] + i, b = st.base[1] + j, c = st.base[2] + k;
-            if constexpr (kCentroid)
-              nodes.add(a, b, c, wt * m, wt * mv, (wt * m) * xp);
-            else
-              nodes.add(a, b, c, wt * m, wt * mv);
-            nodes.addStressImpulse(a, b, c, impulse * grad);
-          }
+      forEachStencilGradient(st, geo.invDx, [&](int a, int b, int c, float wt, Vec3f grad) {
+        if constexpr (kCentroid)
+          nodes.add(a, b, c, wt * m, wt * mv, (wt * m) * xp);
+        else
+          nodes.add(a, b, c, wt * m, wt * mv);
+        nodes.addStressImpulse(a, b, c, impulse * grad);
+      });
     }
   };
 
@@ -76,23 +67,14 @@ struct StandardMpm {
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       if (!geo.stencilInside(P.x[p])) return strayParticle(p, P);
       const QuadraticStencil st(geo, P.x[p]);
-      float dw[3][3];
-      st.gradients(geo.invDx, dw);
-      const float(&w)[3][3] = st.w;
       Vec3f vPic{0.f, 0.f, 0.f}, dv{0.f, 0.f, 0.f};
       Mat3f L{};
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j)
-          for (int k = 0; k < 3; ++k) {
-            const float wt = w[0][i] * w[1][j] * w[2][k];
-            const Vec3f grad{dw[0][i] * w[1][j] * w[2][k], w[0][i] * dw[1][j] * w[2][k],
-                             w[0][i] * w[1][j] * dw[2][k]};
-            const int a = st.base[0] + i, b = st.base[1] + j, c = st.base[2] + k;
-            const Vec3f vNew = nodes.velocity(a, b, c);
-            vPic += wt * vNew;
-            dv += wt * (vNew - nodes.oldVelocity(a, b, c));
-            L = L + outer(vNew, grad);
-          }
+      forEachStencilGradient(st, geo.invDx, [&](int a, int b, int c, float wt, Vec3f grad) {
+        const Vec3f vNew = nodes.velocity(a, b, c);
+        vPic += wt * vNew;
+        dv += wt * (vNew - nodes.oldVelocity(a, b, c));
+        L = L + outer(vNew, grad);
+      });
       P.x[p] += dt * vPic;
       P.v[p] = flip * (P.v[p] + dv) + (1.f - flip) * vPic;
       P.F[p] = (Mat3f::identity() + dt * L) * P.F[p];
@@ -102,18 +84,9 @@ struct StandardMpm {
 
   template <class System>
   static void substep(System& s, const SubstepParams& p) {
-    s.binParticles();
-    s.clearGrid();
     const ParticleView P = s.particles();
-    if (s.hasShapes())
-      s.scatter(P2G<true>{P, s.geometry(), s.materials(), p.dt});
-    else
-      s.scatter(P2G<false>{P, s.geometry(), s.materials(), p.dt});
-    s.updateGrid(GridUpdate{s.grid(), p.dt, p.gravity, p.walls});
-    s.placeShapes();
-    s.exchangeContact(p.dt, true);
-    s.moveShapes(p.dt);
-    s.gather(G2P{P, s.geometry(), p.dt, p.solver.flipBlend, s.parts(), s.partCount()});
+    explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, p.solver.flipBlend, s.parts(), s.partCount()},
+                                     P, s.geometry(), s.materials(), p.dt);
   }
 };
 

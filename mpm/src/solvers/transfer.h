@@ -30,6 +30,20 @@ struct QuadraticStencil {
   }
 };
 
+/// Calls f(i, j, k, w, grad w) for the 27 nodes of a stencil: node (base + (i, j, k)), its
+/// weight and its weight gradient [1/m] (the standard-MPM transfers need both).
+template <class F>
+MPM_HD void forEachStencilGradient(const QuadraticStencil& st, float invDx, F f) {
+  float dw[3][3];
+  st.gradients(invDx, dw);
+  const float(&w)[3][3] = st.w;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k)
+        f(st.base[0] + i, st.base[1] + j, st.base[2] + k, w[0][i] * w[1][j] * w[2][k],
+          Vec3f{dw[0][i] * w[1][j] * w[2][k], w[0][i] * dw[1][j] * w[2][k], w[0][i] * w[1][j] * dw[2][k]});
+}
+
 /// 1 / M_p of the quadratic B-spline APIC/MLS transfers, 4 / dx^2 [1/m^2].
 MPM_HD float apicInverseInertia(const GridGeometry& geo) { return 4.f * geo.invDx * geo.invDx; }
 
@@ -106,6 +120,31 @@ MPM_HD StepCheck strayParticle(uint32_t p, const ParticleView& P) {
   c.firstBadParticle = p;
   c.maxSpeed2 = dot(P.v[p], P.v[p]);
   return c;
+}
+
+/// P2G through the kernel template K<kCentroid>: with the material centroid w m x_p only
+/// when the scene has shapes (contact needs it; a scene without shapes does not pay).
+template <template <bool> class K, class System, class... Args>
+void scatterParticles(System& s, const Args&... args) {
+  if (s.hasShapes())
+    s.scatter(K<true>{args...});
+  else
+    s.scatter(K<false>{args...});
+}
+
+/// The substep of an explicit solver (MLS-MPM, standard MPM): bin, clear, P2G, grid
+/// update, rigid contact and bodies, G2P. P2G<kCentroid> is built from `p2gArgs`; the
+/// grid kernel (fields grid, dt, gravity, walls) only after binning, which sets the grid.
+template <template <bool> class P2G, class GridKernel, class System, class G2PKernel, class... P2GArgs>
+void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, const P2GArgs&... p2gArgs) {
+  s.binParticles();
+  s.clearGrid();
+  scatterParticles<P2G>(s, p2gArgs...);
+  s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});
+  s.placeShapes();
+  s.exchangeContact(p.dt, true);
+  s.moveShapes(p.dt);
+  s.gather(g2p);
 }
 
 /// Stencil nodes reached through the block table, accumulated with `Add` (GPU atomics).
