@@ -74,6 +74,7 @@ struct SolverCase {
       case mpm::SolverType::MlsMpm: return "MLS-MPM";
       case mpm::SolverType::StandardMpm: return "standard MPM";
       case mpm::SolverType::PbMpm: return "PB-MPM " + std::to_string(iterations) + " it";
+      case mpm::SolverType::Mtled: return "MTLED";
     }
     return name;
   }

@@ -18,6 +18,7 @@ inline std::string solverName(SolverType t) {
     case SolverType::MlsMpm: return "MlsMpm";
     case SolverType::StandardMpm: return "StandardMpm";
     case SolverType::PbMpm: return "PbMpm";
+    case SolverType::Mtled: return "Mtled";
   }
   return "?";
 }

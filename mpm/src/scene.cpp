@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <functional>
 #include <future>
+#include <limits>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -132,10 +133,10 @@ class SceneImpl {
 #endif
           "; use Backend::Cpu or Backend::Auto");
     if (s.backend == Backend::Cuda || (s.backend == Backend::Auto && haveCuda)) {
-      backend = makeCudaBackend(s.solver, geo);
+      backend = makeCudaBackend(s, geo);
       resolved = Backend::Cuda;
     } else {
-      backend = makeCpuBackend(s.solver, geo, s.cpuThreads);
+      backend = makeCpuBackend(s, geo);
       resolved = Backend::Cpu;
     }
   }
@@ -180,11 +181,29 @@ class SceneImpl {
     } else if (d.primitive == PrimitiveType::Sphere) {
       lo = {-d.radius, -d.radius, -d.radius};
       hi = {d.radius, d.radius, d.radius};
+    } else if (d.primitive == PrimitiveType::Cylinder) {
+      lo = {-d.radius, -d.halfExtents.y, -d.radius};
+      hi = {d.radius, d.halfExtents.y, d.radius};
     } else {
       lo = d.mesh->lower;
       hi = d.mesh->upper();
     }
+    // the object's material, relative to its centre (a box fills its bounds)
+    const auto inObject = [&d](Vec3f r) {
+      switch (d.primitive) {
+        case PrimitiveType::Sphere: return dot(r, r) <= d.radius * d.radius;
+        case PrimitiveType::Cylinder: return r.x * r.x + r.z * r.z <= d.radius * d.radius;
+        case PrimitiveType::Mesh: return d.mesh->sample(r) < 0.f;
+        case PrimitiveType::Box: break;
+      }
+      return true;
+    };
+    // MPM particles sit at the centres of lattice cells of spacing h; meshless nodes on the
+    // cells' corners, so the outermost ones lie on the bounds (the faces where boundary
+    // conditions act), the spacing stretched to fit the bounds exactly
+    const bool meshless = solverTraits(settings.solver).meshless;
     int n[3];
+    Vec3f step;
     for (int a = 0; a < 3; ++a) {
       n[a] = (int)std::lround((hi[a] - lo[a]) / h);
       if (n[a] < 1)
@@ -192,6 +211,8 @@ class SceneImpl {
                                                                 : "ParticleObjectDesc.radius",
                               validate::show(0.5f * (hi[a] - lo[a])),
                               "is smaller than half the particle spacing " + validate::show(h));
+      step[a] = meshless ? (hi[a] - lo[a]) / n[a] : h;
+      if (meshless) n[a] += 1;
     }
     // the slot the new object will take (not claimed until every check has passed)
     uint32_t slot = 0;
@@ -206,18 +227,18 @@ class SceneImpl {
       for (int j = 0; j < n[1]; ++j)
         for (int k = 0; k < n[2]; ++k) {
           // lattice centred in the bounds, so a box of whole spacings is filled exactly
-          const Vec3f r{0.5f * (lo.x + hi.x) + (i + 0.5f - 0.5f * n[0]) * h,
-                        0.5f * (lo.y + hi.y) + (j + 0.5f - 0.5f * n[1]) * h,
-                        0.5f * (lo.z + hi.z) + (k + 0.5f - 0.5f * n[2]) * h};
-          if (d.primitive == PrimitiveType::Sphere && dot(r, r) > d.radius * d.radius) continue;
-          if (d.primitive == PrimitiveType::Mesh && d.mesh->sample(r) >= 0.f) continue;
+          const Vec3f r{0.5f * (lo.x + hi.x) + (i + 0.5f - 0.5f * n[0]) * step.x,
+                        0.5f * (lo.y + hi.y) + (j + 0.5f - 0.5f * n[1]) * step.y,
+                        0.5f * (lo.z + hi.z) + (k + 0.5f - 0.5f * n[2]) * step.z};
+          // a node on a curved surface may miss it by rounding: keep it
+          if (!inObject(r) && !(meshless && inObject((1.f - 1e-5f) * r))) continue;
           const Vec3f x = d.center + r;
-          bool inside = geo.stencilInside(x);
-          for (int a = 0; a < 3 && inside; ++a) {
+          bool inDomain = geo.stencilInside(x);
+          for (int a = 0; a < 3 && inDomain; ++a) {
             const float g = (x[a] - geo.lower[a]) * geo.invDx;
-            inside = g >= lowWall && g <= geo.cells[a] - lowWall;
+            inDomain = g >= lowWall && g <= geo.cells[a] - lowWall;
           }
-          if (!inside)
+          if (!inDomain)
             throw InvalidArgument(
                 "ParticleObjectDesc.center", validate::show(d.center),
                 "puts a particle at " + validate::show(x) +
@@ -237,6 +258,11 @@ class SceneImpl {
       throw InvalidArgument(d.primitive == PrimitiveType::Mesh ? "ParticleObjectDesc.mesh" : "ParticleObjectDesc.radius",
                             d.primitive == PrimitiveType::Mesh ? "grid" : validate::show(d.radius),
                             "holds no particle at spacing " + validate::show(h));
+    IntegrationCells cells;
+    if (meshless) {
+      const float cellSize = h / settings.mtled.integrationCellsPerSpacing;
+      cells = integrationCells([&](Vec3f x) { return inObject(x - d.center); }, d.center + lo, d.center + hi, cellSize);
+    }
 
     if (slot == objects.size()) objects.emplace_back();
     ObjectRecord& rec = objects[slot];
@@ -247,6 +273,7 @@ class SceneImpl {
     maxParticleSpeed = std::max(maxParticleSpeed, maxSpeed);
     uploadMaterials();
     backend->append(add);
+    if (meshless) backend->appendIntegrationCells(slot, cells);
     return {slot, rec.generation};
   }
 
@@ -268,7 +295,7 @@ class SceneImpl {
   }
 
   /// Substep count for an advance of dt: the CFL bound on the fastest elastic wave plus
-  /// the fastest particle, unless the user fixed the count.
+  /// the fastest particle and the solver's own stable step, unless the user fixed the count.
   int substepCount(float dt) const {
     if (settings.substeps.fixedSubsteps > 0) return settings.substeps.fixedSubsteps;
     float wave = 0.f;
@@ -280,8 +307,9 @@ class SceneImpl {
     for (const auto& sh : shapes)
       if (sh.alive) shapeSpeed = std::max(shapeSpeed, norm(sh.state.linearVelocity));
     const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
-    if (speed <= 0.f) return 1;
-    const float dtMax = settings.substeps.cflNumber * settings.dx / speed;
+    float dtMax = backend->stableTimeStep();
+    if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflNumber * settings.dx / speed);
+    if (!(dtMax < std::numeric_limits<float>::infinity())) return 1;
     return std::max(1, (int)std::ceil(dt / dtMax - 1e-5f));
   }
 

@@ -14,7 +14,11 @@ namespace mpm {
 enum class SolverType {
   MlsMpm,       ///< moving-least-squares MPM with APIC transfers (Hu et al. 2018); the default
   StandardMpm,  ///< explicit update-stress-last MPM with a PIC/FLIP blend
-  PbMpm         ///< position-based MPM (Lewin 2024): iterated constraint projection, large steps
+  PbMpm,        ///< position-based MPM (Lewin 2024): iterated constraint projection, large steps
+  /// meshless Total Lagrangian explicit dynamics (Horton et al. 2010, seed 004): the
+  /// particles are nodes, stress lives on a background grid of integration points; no MPM
+  /// grid, no domain walls (boundary conditions come from the shapes)
+  Mtled
 };
 
 /// Parameters of SolverType::StandardMpm.
@@ -32,6 +36,24 @@ struct PbMpmSettings {
   /// beta: 1 projects the deformation onto a rotation (elastic), 0 onto its volume-
   /// preserving part (incompressible, shape free); in [0, 1].
   float rigidity = 1.f;
+};
+
+/// Parameters of SolverType::Mtled (seed 004 sections 2-3; n, alpha and the integration
+/// density are the paper's).
+struct MtledSettings {
+  /// n: nearest nodes in each integration point's support domain, in [4, 32]. The linear
+  /// basis has m = 4 terms; the paper takes n = 2m.
+  int supportNodes = 8;
+  /// alpha > 1 of eq. 8: support radius = alpha * distance of the farthest of the n nodes.
+  /// Large alpha weights the n nodes almost equally (the paper uses 10); in (1, 1000].
+  float supportScale = 10.f;
+  /// Background integration cells per node spacing along each axis, in [1, 4]. 1.26 gives
+  /// the paper's two integration points per node (section 3.2).
+  float integrationCellsPerSpacing = 1.26f;
+  /// Substep = timeStepSafety * the critical step of eq. 37, in (0, 1]. Eq. 37 is not a
+  /// bound here: the seed 004 cylinder (node spacing 0.01 m) ran at 0.6 of it and diverged
+  /// at 0.9.
+  float timeStepSafety = 0.5f;
 };
 
 /// Where the kernels run. `Auto` picks CUDA when a device is present, else the CPU.
@@ -69,8 +91,10 @@ struct SceneSettings {
   SolverType solver = SolverType::MlsMpm;
   StandardMpmSettings standardMpm;  ///< used when solver == StandardMpm
   PbMpmSettings pbMpm;              ///< used when solver == PbMpm
+  MtledSettings mtled;              ///< used when solver == Mtled
   /// Substeps per advance. PB-MPM is not bound by the elastic wave speed: with the CFL
-  /// policy its substep follows particle and shape speed only.
+  /// policy its substep follows particle and shape speed only. MTLED also takes no more
+  /// than its own stable step (MtledSettings::timeStepSafety).
   SubstepPolicy substeps;
   Backend backend = Backend::Auto;
   int cpuThreads = 0;  ///< CPU backend worker threads; 0 = all hardware threads
@@ -93,22 +117,25 @@ struct Material {
 /// Geometry a particle object is sampled from.
 enum class PrimitiveType {
   Box,     ///< halfExtents about center
-  Sphere,  ///< radius about center
-  Mesh     ///< the inside of a closed mesh, given as its signed distance grid `mesh`
+  Sphere,    ///< radius about center
+  Cylinder,  ///< axis along y through center: `radius`, half-height `halfExtents.y`
+  Mesh       ///< the inside of a closed mesh, given as its signed distance grid `mesh`
 };
 
 /// Description of a body of material points.
 struct ParticleObjectDesc {
   PrimitiveType primitive = PrimitiveType::Box;
   Vec3f center{0.f, 0.f, 0.f};         ///< [m]
-  Vec3f halfExtents{0.1f, 0.1f, 0.1f};  ///< box half sizes [m] (Box)
-  float radius = 0.1f;                  ///< [m] (Sphere)
+  Vec3f halfExtents{0.1f, 0.1f, 0.1f};  ///< box half sizes [m] (Box); .y: half-height (Cylinder)
+  float radius = 0.1f;                  ///< [m] (Sphere, Cylinder)
   /// (Mesh) signed distance grid of a watertight mesh, in a frame whose origin is placed
   /// at `center` (see buildSignedDistanceGrid). A grid whose sign is unreliable (mesh not
   /// watertight) is refused: inside is not defined.
   std::shared_ptr<const SignedDistanceGrid> mesh;
   /// Particles per grid cell along each axis (2 gives the usual 8 per cell). Ignored when
-  /// particleSpacing > 0.
+  /// particleSpacing > 0. With SolverType::Mtled the particles are the nodes, placed on a
+  /// lattice whose outermost nodes lie on the object's bounds (on a box's or cylinder's
+  /// faces, where boundary conditions act) instead of half a spacing inside.
   int particlesPerCellAxis = 2;
   /// If > 0, lattice spacing of the particles [m] instead of dx / particlesPerCellAxis.
   float particleSpacing = 0.f;

@@ -15,49 +15,12 @@
 #include <cstring>
 #include <utility>
 
+#include "backend/exec_array.h"
+#include "backend/shape_set.h"
 #include "backend/sim_backend.h"
 #include "solvers/transfer.h"
 
 namespace mpm {
-
-/// Array in an Exec's memory space, owned.
-template <class T, class Exec>
-class ExecArray {
- public:
-  ExecArray() = default;
-  ExecArray(const ExecArray&) = delete;
-  ExecArray& operator=(const ExecArray&) = delete;
-  ~ExecArray() { reset(); }
-  void bind(Exec* exec) { exec_ = exec; }
-  /// Resizes to exactly n elements; contents are not kept.
-  void resizeDiscard(size_t n) {
-    if (n == size_) return;
-    reset();
-    if (n) data_ = exec_->template allocate<T>(n);
-    size_ = n;
-  }
-  /// Grows to at least n elements (never shrinks); contents are not kept.
-  void reserveDiscard(size_t n) {
-    if (n > size_) resizeDiscard(n);
-  }
-  void reset() {
-    if (data_) exec_->release(data_);
-    data_ = nullptr;
-    size_ = 0;
-  }
-  void swap(ExecArray& o) {
-    std::swap(data_, o.data_);
-    std::swap(size_, o.size_);
-  }
-  T* data() const { return data_; }
-  size_t size() const { return size_; }
-  size_t bytes() const { return size_ * sizeof(T); }
-
- private:
-  Exec* exec_ = nullptr;
-  T* data_ = nullptr;
-  size_t size_ = 0;
-};
 
 namespace kernels {
 
@@ -69,44 +32,6 @@ struct ZeroNodes {
     nodes[n].mx = Vec3f{0.f, 0.f, 0.f};
     nodes[n].dmv = Vec3f{0.f, 0.f, 0.f};
   }
-};
-
-struct PlaceParts {
-  PartView* parts;
-  const BodyView* bodies;
-  float margin;
-  MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin); }
-};
-
-struct AccelerateBodies {
-  BodyView* bodies;
-  float dt;
-  MPM_HD void operator()(size_t i) const { accelerateBody(bodies[i], dt); }
-};
-
-struct PredictBodies {
-  BodyView* bodies;
-  const ContactSums* sums;
-  MPM_HD void operator()(size_t i) const { predictBodyVelocity(bodies[i], sums[i]); }
-};
-
-struct SettleBodies {
-  BodyView* bodies;
-  const ContactSums* sums;
-  ContactSums* record;  ///< momentum exchanged, summed over the substeps of an advance
-  MPM_HD void operator()(size_t i) const {
-    settleBodyVelocity(bodies[i], sums[i]);
-    for (int k = 0; k < 3; ++k) {
-      record[i].impulse[k] += sums[i].impulse[k];
-      record[i].angular[k] += sums[i].angular[k];
-    }
-  }
-};
-
-struct MoveBodies {
-  BodyView* bodies;
-  float dt;
-  MPM_HD void operator()(size_t i) const { moveBody(bodies[i], dt); }
 };
 
 /// out[i] = in[order[i]]: applies a sort permutation to one field.
@@ -125,16 +50,12 @@ class ParticleGridSystem final : public SimBackend {
  public:
   template <class... Args>
   ParticleGridSystem(const GridGeometry& geo, Args&&... execArgs)
-      : exec_(std::forward<Args>(execArgs)...), geo_(geo), bins_(exec_, geo) {
+      : exec_(std::forward<Args>(execArgs)...), geo_(geo), bins_(exec_, geo), shapes_(exec_) {
 #define MPM_BIND(type, name) name##_.bind(&exec_);
     MPM_PARTICLE_FIELDS(MPM_BIND)
 #undef MPM_BIND
     scratch_.bind(&exec_);
     materials_.bind(&exec_);
-    bodies_.bind(&exec_);
-    parts_.bind(&exec_);
-    stepSums_.bind(&exec_);
-    record_.bind(&exec_);
   }
 
   void append(const HostParticles& add) override {
@@ -203,9 +124,9 @@ class ParticleGridSystem final : public SimBackend {
   const GridGeometry& geometry() const { return geo_; }
   const MaterialParams* materials() const { return materials_.data(); }
   GridView grid() const { return bins_.gridView(); }
-  bool hasShapes() const { return parts_.size() > 0; }
-  const PartView* parts() const { return parts_.data(); }
-  int partCount() const { return (int)parts_.size(); }
+  bool hasShapes() const { return shapes_.partCount() > 0; }
+  const PartView* parts() const { return shapes_.parts(); }
+  int partCount() const { return shapes_.partCount(); }
 
   /// Bins the particles by grid block and activates the blocks they reach.
   void binParticles() {
@@ -236,33 +157,30 @@ class ParticleGridSystem final : public SimBackend {
   }
   /// Places the shapes' parts at their bodies' poses (once per substep).
   void placeShapes() {
-    if (parts_.size() == 0) return;
+    if (shapes_.partCount() == 0) return;
     const auto t0 = Clock::now();
     // the contact band of a node reaches one cell beyond the part's own bounds
-    exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), geo_.dx});
+    shapes_.place(geo_.dx);
     timings.contact += seconds(t0);
   }
   /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
   /// bodies: gravity for the substep (if `bodyGravity`), the predicted body velocity, the
   /// projection of the nodes, then the bodies' velocities from what they received.
   void exchangeContact(float dt, bool bodyGravity) {
-    const int nParts = (int)parts_.size(), nBodies = (int)bodies_.size();
+    const int nParts = shapes_.partCount(), nBodies = shapes_.bodyCount();
     if (nParts == 0) return;
     const auto t0 = Clock::now();
-    if (anyDynamic_) {
-      if (bodyGravity) exec_.forEach(nBodies, kernels::AccelerateBodies{bodies_.data(), dt});
-      exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 0);
-      exec_.forEach(nBodies, kernels::PredictBodies{bodies_.data(), stepSums_.data()});
+    if (shapes_.anyDynamic()) {
+      if (bodyGravity) shapes_.accelerate(dt);
+      exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), 0);
+      shapes_.predict();
     }
-    exec_.contactPass(bins_, parts_.data(), nParts, bodies_.data(), nBodies, stepSums_.data(), 1);
-    exec_.forEach(nBodies, kernels::SettleBodies{bodies_.data(), stepSums_.data(), record_.data()});
+    exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), 1);
+    shapes_.settle();
     timings.contact += seconds(t0);
   }
   /// Advances the bodies' poses over the substep.
-  void moveShapes(float dt) {
-    if (bodies_.size() == 0) return;
-    exec_.forEach(bodies_.size(), kernels::MoveBodies{bodies_.data(), dt});
-  }
+  void moveShapes(float dt) { shapes_.move(dt); }
   /// G2P: `k(p, nodes)` for every particle, returning its StepCheck.
   template <class K>
   void gather(const K& k) {
@@ -274,49 +192,14 @@ class ParticleGridSystem final : public SimBackend {
   StepCheck takeCheck() override { return exec_.takeCheck(); }
 
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
-    bodies_.resizeDiscard(bodies.size());
-    exec_.copyToDevice(bodies_.data(), bodies.data(), bodies.size() * sizeof(BodyView));
-    parts_.resizeDiscard(parts.size());
-    exec_.copyToDevice(parts_.data(), parts.data(), parts.size() * sizeof(PartView));
-    stepSums_.resizeDiscard(bodies.size());
-    // the impulse record restarts with the new shape list
-    std::vector<ContactSums> zero(bodies.size(), ContactSums{});
-    record_.resizeDiscard(bodies.size());
-    exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
-    anyDynamic_ = false;
-    for (const BodyView& b : bodies) anyDynamic_ = anyDynamic_ || b.dynamic;
+    shapes_.set(bodies, parts);
   }
-
-  const float* meshValues(const std::vector<float>& values) override {
-    auto& slot = meshes_[&values];
-    if (!slot) {
-      slot = std::make_unique<ExecArray<float, Exec>>();
-      slot->bind(&exec_);
-      slot->resizeDiscard(values.size());
-      exec_.copyToDevice(slot->data(), values.data(), values.size() * sizeof(float));
-    }
-    return slot->data();
-  }
-
+  const float* meshValues(const std::vector<float>& values) override { return shapes_.meshValues(values); }
   void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
-    for (auto it = meshes_.begin(); it != meshes_.end();) {
-      bool keep = false;
-      for (const auto* l : live) keep = keep || l == it->first;
-      it = keep ? std::next(it) : meshes_.erase(it);
-    }
+    shapes_.releaseMeshesExcept(live);
   }
-
-  void readBodies(std::vector<BodyView>& out) const override {
-    out.resize(bodies_.size());
-    exec_.copyToHost(out.data(), bodies_.data(), out.size() * sizeof(BodyView));
-  }
-
-  std::vector<ContactSums> takeImpulses() override {
-    std::vector<ContactSums> out(record_.size()), zero(record_.size(), ContactSums{});
-    exec_.copyToHost(out.data(), record_.data(), out.size() * sizeof(ContactSums));
-    exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
-    return out;
-  }
+  void readBodies(std::vector<BodyView>& out) const override { shapes_.readBodies(out); }
+  std::vector<ContactSums> takeImpulses() override { return shapes_.takeImpulses(); }
 
   void download(HostParticles& out) const override {
 #define MPM_DOWNLOAD(type, name) \
@@ -329,9 +212,7 @@ class ParticleGridSystem final : public SimBackend {
   size_t particleCount() const override { return count_; }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = scratch_.bytes() + materials_.bytes() + bins_.memoryBytes() + bodies_.bytes() +
-               parts_.bytes() + stepSums_.bytes() + record_.bytes();
-    for (const auto& m : meshes_) b += m.second->bytes();
+    size_t b = scratch_.bytes() + materials_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
 #define MPM_BYTES(type, name) b += name##_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -362,11 +243,7 @@ class ParticleGridSystem final : public SimBackend {
 #undef MPM_MEMBER
   ExecArray<uint8_t, Exec> scratch_;
   ExecArray<MaterialParams, Exec> materials_;
-  ExecArray<BodyView, Exec> bodies_;
-  ExecArray<PartView, Exec> parts_;
-  ExecArray<ContactSums, Exec> stepSums_, record_;
-  bool anyDynamic_ = false;
-  std::map<const std::vector<float>*, std::unique_ptr<ExecArray<float, Exec>>> meshes_;
+  ShapeSet<Exec> shapes_;
 };
 
 }  // namespace mpm

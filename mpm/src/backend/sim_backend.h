@@ -1,9 +1,11 @@
 #pragma once
 // The interface between the Scene (host bookkeeping, validation, substep policy) and a
-// backend that owns particle and grid memory and runs the kernels. One implementation,
-// ParticleGridSystem<Exec>, is compiled once per backend (CPU in a .cpp, CUDA in a .cu).
+// backend that owns particle and grid memory and runs the kernels. The implementations,
+// ParticleGridSystem<Exec, Method> (the MPM solvers) and MtledSystem<Exec> (meshless),
+// are compiled once per backend (CPU in a .cpp, CUDA in a .cu).
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <vector>
@@ -26,11 +28,21 @@ struct HostParticles {
   size_t size() const { return x.size(); }
 };
 
+/// Background integration cells of one object (meshless solvers): a point in each cell
+/// that holds material and the volume of material it stands for [m^3].
+struct IntegrationCells {
+  std::vector<Vec3f> points;
+  std::vector<float> volumes;
+};
+
 class SimBackend {
  public:
   virtual ~SimBackend() = default;
   /// Appends particles (all fields filled) at the end of the state.
   virtual void append(const HostParticles& particles) = 0;
+  /// The integration cells of the object in `slot` (appended just before); solvers
+  /// without integration cells ignore them.
+  virtual void appendIntegrationCells(uint32_t /*slot*/, const IntegrationCells& /*cells*/) {}
   /// Keeps only the particles whose object slot has keep[slot] != 0.
   virtual void removeObjects(const std::vector<uint8_t>& keep) = 0;
   /// Material table indexed by object slot.
@@ -40,6 +52,10 @@ class SimBackend {
   /// One substep of the scene's solver. Particles whose state is not finite or whose stencil left the
   /// grid are skipped by the transfers (never written out of bounds) and recorded.
   virtual void substep(const SubstepParams& params) = 0;
+  /// Longest substep the solver's own stability allows [s]; infinity when the Scene's CFL
+  /// bound is all it needs (the MPM solvers). Not const: a solver may finish a setup
+  /// deferred since particles last changed to know it.
+  virtual float stableTimeStep() { return std::numeric_limits<float>::infinity(); }
   /// The checks of the substeps since the last call (read once per advance, so the GPU
   /// is not waited on inside the substep loop), then cleared.
   virtual StepCheck takeCheck() = 0;
@@ -61,8 +77,9 @@ class SimBackend {
   StageTimings timings;
 };
 
-std::unique_ptr<SimBackend> makeCpuBackend(SolverType solver, const GridGeometry& geo, int threads);
+/// The backend of `settings.solver` (its parameters from `settings`).
+std::unique_ptr<SimBackend> makeCpuBackend(const SceneSettings& settings, const GridGeometry& geo);
 /// Throws BackendUnavailable when built without CUDA or no device is present.
-std::unique_ptr<SimBackend> makeCudaBackend(SolverType solver, const GridGeometry& geo);
+std::unique_ptr<SimBackend> makeCudaBackend(const SceneSettings& settings, const GridGeometry& geo);
 
 }  // namespace mpm

@@ -65,7 +65,7 @@ void sceneSettings(const SceneSettings& s) {
   atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
   atLeast("SceneSettings.cpuThreads", s.cpuThreads, 0);
   const int solver = static_cast<int>(s.solver);
-  if (solver < 0 || solver > static_cast<int>(SolverType::PbMpm))
+  if (solver < 0 || solver > static_cast<int>(SolverType::Mtled))
     throw InvalidArgument("SceneSettings.solver", std::to_string(solver), "is not a SolverType");
   const float flip = s.standardMpm.flipBlend;
   if (!(flip >= 0.f && flip <= 1.f))
@@ -80,6 +80,26 @@ void sceneSettings(const SceneSettings& s) {
   const float beta = s.pbMpm.rigidity;
   if (!(beta >= 0.f && beta <= 1.f))
     throw InvalidArgument("SceneSettings.pbMpm.rigidity", show(beta), "must lie in [0, 1]");
+  mtledSettings(s.mtled);
+}
+
+void mtledSettings(const MtledSettings& m) {
+  if (m.supportNodes < 4 || m.supportNodes > 32)
+    throw InvalidArgument("SceneSettings.mtled.supportNodes", std::to_string(m.supportNodes),
+                          "must lie in [4, 32] (the linear basis needs at least m = 4 nodes)");
+  finite("SceneSettings.mtled.supportScale", m.supportScale);
+  if (!(m.supportScale > 1.f && m.supportScale <= 1000.f))
+    throw InvalidArgument("SceneSettings.mtled.supportScale", show(m.supportScale),
+                          "must lie in (1, 1000] (alpha <= 1 gives the farthest node zero weight)");
+  finite("SceneSettings.mtled.integrationCellsPerSpacing", m.integrationCellsPerSpacing);
+  if (!(m.integrationCellsPerSpacing >= 1.f && m.integrationCellsPerSpacing <= 4.f))
+    throw InvalidArgument("SceneSettings.mtled.integrationCellsPerSpacing", show(m.integrationCellsPerSpacing),
+                          "must lie in [1, 4] (fewer integration points than nodes leaves nodes outside "
+                          "the support domains)");
+  finite("SceneSettings.mtled.timeStepSafety", m.timeStepSafety);
+  if (!(m.timeStepSafety > 0.f && m.timeStepSafety <= 1.f))
+    throw InvalidArgument("SceneSettings.mtled.timeStepSafety", show(m.timeStepSafety),
+                          "must lie in (0, 1] (beyond the critical step the explicit update diverges)");
 }
 
 void material(const std::string& prefix, const Material& m) {
@@ -93,7 +113,9 @@ void material(const std::string& prefix, const Material& m) {
 void particleObjectDesc(const ParticleObjectDesc& d) {
   finite("ParticleObjectDesc.center", d.center);
   if (d.primitive == PrimitiveType::Box) positive("ParticleObjectDesc.halfExtents", d.halfExtents);
-  if (d.primitive == PrimitiveType::Sphere) positive("ParticleObjectDesc.radius", d.radius);
+  if (d.primitive == PrimitiveType::Sphere || d.primitive == PrimitiveType::Cylinder)
+    positive("ParticleObjectDesc.radius", d.radius);
+  if (d.primitive == PrimitiveType::Cylinder) positive("ParticleObjectDesc.halfExtents.y", d.halfExtents.y);
   if (d.primitive == PrimitiveType::Mesh) {
     if (!d.mesh || d.mesh->values.empty())
       throw InvalidArgument("ParticleObjectDesc.mesh", "empty", "a Mesh object needs a signed distance grid");

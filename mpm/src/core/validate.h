@@ -21,6 +21,7 @@ void positive(const std::string& field, Vec3f v);
 void atLeast(const std::string& field, int v, int lo);
 
 void sceneSettings(const SceneSettings& s);
+void mtledSettings(const MtledSettings& m);
 void material(const std::string& prefix, const Material& m);
 void particleObjectDesc(const ParticleObjectDesc& d);
 

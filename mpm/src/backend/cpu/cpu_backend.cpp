@@ -4,8 +4,8 @@
 
 namespace mpm {
 
-std::unique_ptr<SimBackend> makeCpuBackend(SolverType solver, const GridGeometry& geo, int threads) {
-  return makeParticleGridSystem<CpuExec>(solver, geo, threads);
+std::unique_ptr<SimBackend> makeCpuBackend(const SceneSettings& settings, const GridGeometry& geo) {
+  return makeSolverBackend<CpuExec>(settings, geo, settings.cpuThreads);
 }
 
 }  // namespace mpm

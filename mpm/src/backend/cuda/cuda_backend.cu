@@ -14,9 +14,9 @@ bool cudaDeviceAvailable() {
   return count > 0;
 }
 
-std::unique_ptr<SimBackend> makeCudaBackend(SolverType solver, const GridGeometry& geo) {
+std::unique_ptr<SimBackend> makeCudaBackend(const SceneSettings& settings, const GridGeometry& geo) {
   if (!cudaDeviceAvailable()) throw BackendUnavailable("no usable CUDA device in this process");
-  return makeParticleGridSystem<CudaExec>(solver, geo);
+  return makeSolverBackend<CudaExec>(settings, geo);
 }
 
 }  // namespace mpm

@@ -5,7 +5,7 @@ namespace mpm {
 
 bool cudaDeviceAvailable() { return false; }
 
-std::unique_ptr<SimBackend> makeCudaBackend(SolverType, const GridGeometry&) {
+std::unique_ptr<SimBackend> makeCudaBackend(const SceneSettings&, const GridGeometry&) {
   throw BackendUnavailable("the library was built without the CUDA backend (nvcc not found)");
 }
 

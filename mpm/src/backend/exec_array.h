@@ -1,0 +1,47 @@
+#pragma once
+// ExecArray<T, Exec>: an owned array in an execution backend's memory space.
+#include <cstddef>
+#include <utility>
+
+namespace mpm {
+
+/// Array in an Exec's memory space, owned.
+template <class T, class Exec>
+class ExecArray {
+ public:
+  ExecArray() = default;
+  ExecArray(const ExecArray&) = delete;
+  ExecArray& operator=(const ExecArray&) = delete;
+  ~ExecArray() { reset(); }
+  void bind(Exec* exec) { exec_ = exec; }
+  /// Resizes to exactly n elements; contents are not kept.
+  void resizeDiscard(size_t n) {
+    if (n == size_) return;
+    reset();
+    if (n) data_ = exec_->template allocate<T>(n);
+    size_ = n;
+  }
+  /// Grows to at least n elements (never shrinks); contents are not kept.
+  void reserveDiscard(size_t n) {
+    if (n > size_) resizeDiscard(n);
+  }
+  void reset() {
+    if (data_) exec_->release(data_);
+    data_ = nullptr;
+    size_ = 0;
+  }
+  void swap(ExecArray& o) {
+    std::swap(data_, o.data_);
+    std::swap(size_, o.size_);
+  }
+  T* data() const { return data_; }
+  size_t size() const { return size_; }
+  size_t bytes() const { return size_ * sizeof(T); }
+
+ private:
+  Exec* exec_ = nullptr;
+  T* data_ = nullptr;
+  size_t size_ = 0;
+};
+
+}  // namespace mpm

@@ -1,0 +1,154 @@
+#pragma once
+// ShapeSet<Exec>: the rigid shapes as a backend holds them (bodies, their parts, cached mesh
+// distance grids) and the momentum each body received, in Exec memory. Shared by every
+// solver system: the particle-grid solvers and MTLED differ in where the contact is
+// applied (grid nodes or meshless nodes), not in how shapes are stored, placed and moved.
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "backend/exec_array.h"
+#include "shapes/shape_kernels.h"
+
+namespace mpm {
+
+namespace kernels {
+
+struct PlaceParts {
+  PartView* parts;
+  const BodyView* bodies;
+  float margin;
+  MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin); }
+};
+
+struct AccelerateBodies {
+  BodyView* bodies;
+  float dt;
+  MPM_HD void operator()(size_t i) const { accelerateBody(bodies[i], dt); }
+};
+
+struct PredictBodies {
+  BodyView* bodies;
+  const ContactSums* sums;
+  MPM_HD void operator()(size_t i) const { predictBodyVelocity(bodies[i], sums[i]); }
+};
+
+struct SettleBodies {
+  BodyView* bodies;
+  const ContactSums* sums;
+  ContactSums* record;  ///< momentum exchanged, summed over the substeps of an advance
+  MPM_HD void operator()(size_t i) const {
+    settleBodyVelocity(bodies[i], sums[i]);
+    for (int k = 0; k < 3; ++k) {
+      record[i].impulse[k] += sums[i].impulse[k];
+      record[i].angular[k] += sums[i].angular[k];
+    }
+  }
+};
+
+struct MoveBodies {
+  BodyView* bodies;
+  float dt;
+  MPM_HD void operator()(size_t i) const { moveBody(bodies[i], dt); }
+};
+
+}  // namespace kernels
+
+template <class Exec>
+class ShapeSet {
+ public:
+  explicit ShapeSet(Exec& exec) : exec_(exec) {
+    bodies_.bind(&exec_);
+    parts_.bind(&exec_);
+    stepSums_.bind(&exec_);
+    record_.bind(&exec_);
+  }
+
+  BodyView* bodies() const { return bodies_.data(); }
+  int bodyCount() const { return (int)bodies_.size(); }
+  const PartView* parts() const { return parts_.data(); }
+  int partCount() const { return (int)parts_.size(); }
+  /// Per-body sums of the current contact pass.
+  ContactSums* stepSums() const { return stepSums_.data(); }
+  bool anyDynamic() const { return anyDynamic_; }
+
+  void set(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) {
+    bodies_.resizeDiscard(bodies.size());
+    exec_.copyToDevice(bodies_.data(), bodies.data(), bodies.size() * sizeof(BodyView));
+    parts_.resizeDiscard(parts.size());
+    exec_.copyToDevice(parts_.data(), parts.data(), parts.size() * sizeof(PartView));
+    stepSums_.resizeDiscard(bodies.size());
+    // the impulse record restarts with the new shape list
+    std::vector<ContactSums> zero(bodies.size(), ContactSums{});
+    record_.resizeDiscard(bodies.size());
+    exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
+    anyDynamic_ = false;
+    for (const BodyView& b : bodies) anyDynamic_ = anyDynamic_ || b.dynamic;
+  }
+
+  /// Places the parts at their bodies' poses, bounds grown by `margin` and the band.
+  void place(float margin) {
+    if (parts_.size() == 0) return;
+    exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), margin});
+  }
+  /// Gravity of the dynamic bodies over a substep (before the contact that takes it back).
+  void accelerate(float dt) { exec_.forEach(bodies_.size(), kernels::AccelerateBodies{bodies_.data(), dt}); }
+  /// Dynamic bodies' velocities predicted from a measuring pass's stepSums().
+  void predict() { exec_.forEach(bodies_.size(), kernels::PredictBodies{bodies_.data(), stepSums_.data()}); }
+  /// Bodies' velocities from the applying pass's stepSums(), which join the record.
+  void settle() {
+    exec_.forEach(bodies_.size(), kernels::SettleBodies{bodies_.data(), stepSums_.data(), record_.data()});
+  }
+  /// Advances the bodies' poses over a substep.
+  void move(float dt) {
+    if (bodies_.size() == 0) return;
+    exec_.forEach(bodies_.size(), kernels::MoveBodies{bodies_.data(), dt});
+  }
+
+  const float* meshValues(const std::vector<float>& values) {
+    auto& slot = meshes_[&values];
+    if (!slot) {
+      slot = std::make_unique<ExecArray<float, Exec>>();
+      slot->bind(&exec_);
+      slot->resizeDiscard(values.size());
+      exec_.copyToDevice(slot->data(), values.data(), values.size() * sizeof(float));
+    }
+    return slot->data();
+  }
+
+  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) {
+    for (auto it = meshes_.begin(); it != meshes_.end();) {
+      bool keep = false;
+      for (const auto* l : live) keep = keep || l == it->first;
+      it = keep ? std::next(it) : meshes_.erase(it);
+    }
+  }
+
+  void readBodies(std::vector<BodyView>& out) const {
+    out.resize(bodies_.size());
+    exec_.copyToHost(out.data(), bodies_.data(), out.size() * sizeof(BodyView));
+  }
+
+  std::vector<ContactSums> takeImpulses() {
+    std::vector<ContactSums> out(record_.size()), zero(record_.size(), ContactSums{});
+    exec_.copyToHost(out.data(), record_.data(), out.size() * sizeof(ContactSums));
+    exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
+    return out;
+  }
+
+  size_t memoryBytes() const {
+    size_t b = bodies_.bytes() + parts_.bytes() + stepSums_.bytes() + record_.bytes();
+    for (const auto& m : meshes_) b += m.second->bytes();
+    return b;
+  }
+
+ private:
+  Exec& exec_;
+  ExecArray<BodyView, Exec> bodies_;
+  ExecArray<PartView, Exec> parts_;
+  ExecArray<ContactSums, Exec> stepSums_, record_;
+  bool anyDynamic_ = false;
+  std::map<const std::vector<float>*, std::unique_ptr<ExecArray<float, Exec>>> meshes_;
+};
+
+}  // namespace mpm

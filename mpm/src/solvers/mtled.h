@@ -1,0 +1,415 @@
+#pragma once
+// MTLED: meshless Total Lagrangian explicit dynamics (Horton, Wittek, Joldes & Miller 2010;
+// seed 004 sections 2-3). The particles are the nodes; stress is evaluated at integration
+// points on a regular background grid (one point per cell holding material). Each
+// integration point interpolates the displacement from its n nearest nodes with moving
+// least squares (linear basis, quartic spline weight), whose derivatives at the reference
+// configuration are computed once (mtled_setup.cpp). Every substep, for each integration
+// point: F = I + sum_i u_i (x) grad phi_i, first Piola stress P = tau F^-T, nodal forces
+// V P grad phi_i; for each node the central-difference update with the lumped mass.
+// Boundary conditions come from the shapes: a node in a shape's contact band gets the
+// contact velocity of the grid contact (bonded: the shape's velocity, frictional: its
+// normal velocity while pressed on), and the momentum that takes is the shape's impulse.
+//
+// No MPM grid and no domain walls. The kernels are MPM_HD functors run through Exec's
+// forEach; forces are gathered per node from a precomputed incidence list (no atomics,
+// the same order on every backend).
+#include <algorithm>
+#include <chrono>
+#include <functional>
+#include <vector>
+
+#include "backend/exec_array.h"
+#include "backend/shape_set.h"
+#include "backend/sim_backend.h"
+#include "core/constitutive.h"
+
+namespace mpm {
+
+/// The static model MTLED precomputes from the nodes and integration cells (host side).
+struct MtledModel {
+  int supportNodes = 0;                ///< n
+  std::vector<uint32_t> support;       ///< [point * n + k]: node index
+  std::vector<Vec3f> shapeGradients;   ///< [point * n + k]: d phi_k / d X at the point [1/m]
+  std::vector<float> volumes;          ///< per point [m^3]
+  std::vector<uint32_t> pointObject;   ///< per point: object slot (its material)
+  std::vector<float> nodeMass;         ///< lumped: each point's mass split evenly over its n nodes [kg]
+  std::vector<float> nodeVolume;       ///< likewise, the volume [m^3]
+  /// Per node: itself, or for a node dropped for lying in fewer than two support domains
+  /// the nearest kept node, whose displacement it follows.
+  std::vector<uint32_t> carrier;
+  /// Incidence list: node i's force terms are forceTerms[forceStart[i] .. forceStart[i+1]),
+  /// each an index point * n + k.
+  std::vector<uint32_t> forceStart, forceTerms;
+  float criticalTimeStep = 0;  ///< eq. 37 over all points [s]
+  size_t droppedNodes = 0;
+};
+
+/// Builds the model (seed 004 section 2.1, preprocessing steps 3-4, and section 3.3):
+/// n nearest nodes and MLS shape-function derivatives per point, lumped masses, removal
+/// of nodes in fewer than two support domains (repeated until none is left), the
+/// critical step. Throws Error if a point's moment matrix is singular.
+MtledModel buildMtledModel(const MtledSettings& settings, const std::vector<Vec3f>& X,
+                           const std::vector<uint32_t>& nodeObject, const std::vector<Vec3f>& points,
+                           const std::vector<float>& volumes, const std::vector<uint32_t>& pointObject,
+                           const std::vector<MaterialParams>& materials);
+
+/// Integration cells over the box [lo, hi] (cells of about `cellSize`, fitted to the box):
+/// each cell that holds material per `inside` gives one point, at the centroid of its
+/// material part, with the volume of that part (both from 4^3 samples per cell). Cells cut
+/// by a curved surface thus keep the volume they hold instead of all or nothing.
+IntegrationCells integrationCells(const std::function<bool(Vec3f)>& inside, Vec3f lo, Vec3f hi,
+                                  float cellSize);
+
+namespace kernels {
+
+/// Per integration point: deformation gradient from the nodal displacements, stress, and
+/// the internal force V P grad phi_k on each of its n nodes.
+struct MtledInternalForce {
+  const Vec3f* x;
+  const Vec3f* X;
+  const uint32_t* support;
+  const Vec3f* gradients;
+  const float* volumes;
+  const uint32_t* pointObject;
+  const MaterialParams* materials;
+  int n;
+  Vec3f* forces;
+  MPM_HD void operator()(size_t p) const {
+    const uint32_t* nodes = support + p * n;
+    const Vec3f* g = gradients + p * n;
+    Mat3f F = Mat3f::identity();
+    for (int k = 0; k < n; ++k) F = F + outer(x[nodes[k]] - X[nodes[k]], g[k]);
+    const Mat3f tau = kirchhoffStress(materials[pointObject[p]], F);
+    const Mat3f P = tau * transpose(inverse(F));  // first Piola-Kirchhoff
+    for (int k = 0; k < n; ++k) forces[p * n + k] = volumes[p] * (P * g[k]);
+  }
+};
+
+/// Per node: velocity at t + dt/2 from the internal forces and gravity (central difference).
+struct MtledAccelerate {
+  Vec3f* v;
+  const float* mass;
+  const uint32_t* carrier;
+  const uint32_t* forceStart;
+  const uint32_t* forceTerms;
+  const Vec3f* forces;
+  Vec3f gravity;
+  float dt;
+  MPM_HD void operator()(size_t i) const {
+    if (carrier[i] != i) return;
+    Vec3f f{0.f, 0.f, 0.f};
+    for (uint32_t t = forceStart[i]; t < forceStart[i + 1]; ++t) f += forces[forceTerms[t]];
+    v[i] += dt * (gravity - (1.f / mass[i]) * f);
+  }
+};
+
+/// Per node: contact with every part (the grid contact law of shape_kernels.h, the node's
+/// own position standing for its material), the momentum exchanged kept per node and body.
+struct MtledContact {
+  const Vec3f* x;
+  Vec3f* v;
+  const float* mass;
+  const uint32_t* carrier;
+  const PartView* parts;
+  int nParts;
+  const BodyView* bodies;
+  int nBodies;
+  ContactSums* nodeSums;  ///< [node * nBodies + body]
+  int pass;
+  MPM_HD void operator()(size_t i) const {
+    ContactSums* sums = nodeSums + i * nBodies;
+    for (int b = 0; b < nBodies; ++b) sums[b] = ContactSums{};
+    if (carrier[i] != i) return;
+    for (int p = 0; p < nParts; ++p) {
+      if (!parts[p].mayTouch(x[i], x[i])) continue;
+      contactNodePart(x[i], mass[i], v[i], x[i], parts[p], bodies, sums[parts[p].body], pass);
+    }
+  }
+};
+
+/// Per body: the sum of its nodes' exchanges, in node order (the same on every backend).
+struct MtledSumContacts {
+  const ContactSums* nodeSums;
+  size_t nNodes;
+  int nBodies;
+  ContactSums* out;
+  MPM_HD void operator()(size_t b) const {
+    ContactSums s{};
+    for (size_t i = 0; i < nNodes; ++i) {
+      const float* src = &nodeSums[i * nBodies + b].impulse[0];
+      float* dst = &s.impulse[0];
+      for (int k = 0; k < kContactSumFloats; ++k) dst[k] += src[k];
+    }
+    out[b] = s;
+  }
+};
+
+/// Per node: x(t + dt) = x(t) + dt v(t + dt/2).
+struct MtledMove {
+  Vec3f* x;
+  const Vec3f* v;
+  const uint32_t* carrier;
+  float dt;
+  MPM_HD void operator()(size_t i) const {
+    if (carrier[i] == i) x[i] += dt * v[i];
+  }
+};
+
+/// Per dropped node: the displacement and velocity of its carrier.
+struct MtledFollow {
+  Vec3f* x;
+  Vec3f* v;
+  const Vec3f* X;
+  const uint32_t* carrier;
+  MPM_HD void operator()(size_t i) const {
+    const uint32_t c = carrier[i];
+    if (c == i) return;
+    x[i] = X[i] + (x[c] - X[c]);
+    v[i] = v[c];
+  }
+};
+
+}  // namespace kernels
+
+template <class Exec>
+class MtledSystem final : public SimBackend {
+ public:
+  template <class... Args>
+  explicit MtledSystem(const MtledSettings& settings, Args&&... execArgs)
+      : exec_(std::forward<Args>(execArgs)...), settings_(settings), shapes_(exec_) {
+    for (auto* a : {&x_, &v_, &X_}) a->bind(&exec_);
+    for (auto* a : {&carrier_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
+    mass_.bind(&exec_);
+    volumes_.bind(&exec_);
+    gradients_.bind(&exec_);
+    forces_.bind(&exec_);
+    materials_.bind(&exec_);
+    nodeSums_.bind(&exec_);
+  }
+
+  void append(const HostParticles& add) override {
+    syncToHost();
+#define MPM_APPEND(type, name) nodes_.name.insert(nodes_.name.end(), add.name.begin(), add.name.end());
+    MPM_PARTICLE_FIELDS(MPM_APPEND)
+#undef MPM_APPEND
+    reference_.insert(reference_.end(), add.x.begin(), add.x.end());  // X: the configuration at creation
+    dirty_ = true;
+  }
+
+  void appendIntegrationCells(uint32_t slot, const IntegrationCells& cells) override {
+    points_.insert(points_.end(), cells.points.begin(), cells.points.end());
+    pointVolumes_.insert(pointVolumes_.end(), cells.volumes.begin(), cells.volumes.end());
+    pointSlot_.insert(pointSlot_.end(), cells.points.size(), slot);
+    dirty_ = true;
+  }
+
+  void removeObjects(const std::vector<uint8_t>& keep) override {
+    syncToHost();
+    HostParticles kept;
+    std::vector<Vec3f> keptX;
+    for (size_t i = 0; i < nodes_.size(); ++i) {
+      if (!keep[nodes_.object[i]]) continue;
+#define MPM_KEEP(type, name) kept.name.push_back(nodes_.name[i]);
+      MPM_PARTICLE_FIELDS(MPM_KEEP)
+#undef MPM_KEEP
+      keptX.push_back(reference_[i]);
+    }
+    nodes_ = std::move(kept);
+    reference_ = std::move(keptX);
+    IntegrationCells keptCells;
+    std::vector<uint32_t> keptObject;
+    for (size_t p = 0; p < points_.size(); ++p) {
+      if (!keep[pointSlot_[p]]) continue;
+      keptCells.points.push_back(points_[p]);
+      keptCells.volumes.push_back(pointVolumes_[p]);
+      keptObject.push_back(pointSlot_[p]);
+    }
+    points_ = std::move(keptCells.points);
+    pointVolumes_ = std::move(keptCells.volumes);
+    pointSlot_ = std::move(keptObject);
+    dirty_ = true;
+  }
+
+  void setMaterials(const std::vector<MaterialParams>& m) override {
+    materialTable_ = m;
+    materials_.resizeDiscard(m.size());
+    exec_.copyToDevice(materials_.data(), m.data(), m.size() * sizeof(MaterialParams));
+    dirty_ = true;  // the critical step depends on the wave speeds
+  }
+
+  void sortParticles() override {}  // the nodes' order is the model's; nothing to sort
+
+  float stableTimeStep() override {
+    prepare();
+    return settings_.timeStepSafety * model_.criticalTimeStep;
+  }
+
+  /// The model's critical step (eq. 37) and the nodes it dropped, for reports and tests.
+  const MtledModel& model() {
+    prepare();
+    return model_;
+  }
+
+  void substep(const SubstepParams& s) override {
+    prepare();
+    const size_t nNodes = nodes_.size(), nPoints = points_.size();
+    if (nNodes == 0) return;
+    const int n = model_.supportNodes;
+    auto t0 = Clock::now();
+    shapes_.place(0.f);  // nodes are tested at their own positions: no cell margin
+    timings.contact += seconds(t0);
+
+    t0 = Clock::now();
+    exec_.forEach(nPoints, kernels::MtledInternalForce{x_.data(), X_.data(), support_.data(), gradients_.data(),
+                                                        volumes_.data(), pointObject_.data(), materials_.data(),
+                                                        n, forces_.data()});
+    timings.p2g += seconds(t0);
+    t0 = Clock::now();
+    exec_.forEach(nNodes, kernels::MtledAccelerate{v_.data(), mass_.data(), carrier_.data(), forceStart_.data(),
+                                                    forceTerms_.data(), forces_.data(), s.gravity, s.dt});
+    timings.gridUpdate += seconds(t0);
+
+    t0 = Clock::now();
+    if (shapes_.partCount() > 0) {
+      // the same two-pass exchange as the grid contact (ParticleGridSystem::exchangeContact)
+      if (shapes_.anyDynamic()) {
+        shapes_.accelerate(s.dt);
+        contactPass(0);
+        shapes_.predict();
+      }
+      contactPass(1);
+      shapes_.settle();
+    }
+    shapes_.move(s.dt);
+    timings.contact += seconds(t0);
+
+    t0 = Clock::now();
+    exec_.forEach(nNodes, kernels::MtledMove{x_.data(), v_.data(), carrier_.data(), s.dt});
+    if (model_.droppedNodes > 0)
+      exec_.forEach(nNodes, kernels::MtledFollow{x_.data(), v_.data(), X_.data(), carrier_.data()});
+    timings.g2p += seconds(t0);
+    timings.substeps += 1;
+  }
+
+  /// Read once per advance: the nodes' state is checked where it is, on the host copy.
+  StepCheck takeCheck() override {
+    StepCheck c;
+    if (nodes_.size() == 0 || dirty_) return c;
+    std::vector<Vec3f> x(nodes_.size()), v(nodes_.size());
+    exec_.copyToHost(x.data(), x_.data(), x.size() * sizeof(Vec3f));
+    exec_.copyToHost(v.data(), v_.data(), v.size() * sizeof(Vec3f));
+    for (size_t i = 0; i < x.size(); ++i) {
+      const bool finite = isFinite(x[i].x) && isFinite(x[i].y) && isFinite(x[i].z) && isFinite(v[i].x) &&
+                          isFinite(v[i].y) && isFinite(v[i].z);
+      if (!finite) {
+        if (c.firstBadParticle == 0xffffffffu) c.firstBadParticle = (uint32_t)i;
+        continue;
+      }
+      c.maxSpeed2 = std::max(c.maxSpeed2, dot(v[i], v[i]));
+    }
+    return c;
+  }
+
+  void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
+    shapes_.set(bodies, parts);
+  }
+  const float* meshValues(const std::vector<float>& values) override { return shapes_.meshValues(values); }
+  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
+    shapes_.releaseMeshesExcept(live);
+  }
+  void readBodies(std::vector<BodyView>& out) const override { shapes_.readBodies(out); }
+  std::vector<ContactSums> takeImpulses() override { return shapes_.takeImpulses(); }
+
+  void download(HostParticles& out) const override {
+    out = nodes_;
+    if (dirty_ || nodes_.size() == 0) return;  // nodes_ is current until the model is built
+    exec_.copyToHost(out.x.data(), x_.data(), out.x.size() * sizeof(Vec3f));
+    exec_.copyToHost(out.v.data(), v_.data(), out.v.size() * sizeof(Vec3f));
+  }
+
+  size_t particleCount() const override { return nodes_.size(); }
+  size_t activeBlocks() const override { return 0; }  // no grid
+  size_t memoryBytes() const override {
+    return x_.bytes() + v_.bytes() + X_.bytes() + mass_.bytes() + carrier_.bytes() + support_.bytes() +
+           gradients_.bytes() + volumes_.bytes() + pointObject_.bytes() + forceStart_.bytes() +
+           forceTerms_.bytes() + forces_.bytes() + materials_.bytes() + nodeSums_.bytes() + shapes_.memoryBytes();
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  static double seconds(Clock::time_point t0) {
+    return std::chrono::duration<double>(Clock::now() - t0).count();
+  }
+
+  template <class T>
+  void upload(ExecArray<T, Exec>& a, const std::vector<T>& host) {
+    a.resizeDiscard(host.size());
+    exec_.copyToDevice(a.data(), host.data(), host.size() * sizeof(T));
+  }
+
+  /// Brings the host copy of the nodes' motion up to date before the node set changes.
+  void syncToHost() {
+    if (dirty_ || nodes_.size() == 0) return;
+    exec_.copyToHost(nodes_.x.data(), x_.data(), nodes_.size() * sizeof(Vec3f));
+    exec_.copyToHost(nodes_.v.data(), v_.data(), nodes_.size() * sizeof(Vec3f));
+  }
+
+  /// Builds the model and uploads it, once after the nodes, cells or materials changed.
+  void prepare() {
+    if (!dirty_) return;
+    const auto t0 = Clock::now();
+    model_ = buildMtledModel(settings_, reference_, nodes_.object, points_, pointVolumes_, pointSlot_,
+                             materialTable_);
+    // the lumped masses replace the lattice's, so summaries report the mass MTLED moves
+    nodes_.mass = model_.nodeMass;
+    nodes_.volume0 = model_.nodeVolume;
+    upload(x_, nodes_.x);
+    upload(v_, nodes_.v);
+    upload(X_, reference_);
+    upload(mass_, model_.nodeMass);
+    upload(carrier_, model_.carrier);
+    upload(support_, model_.support);
+    upload(gradients_, model_.shapeGradients);
+    upload(volumes_, model_.volumes);
+    upload(pointObject_, model_.pointObject);
+    upload(forceStart_, model_.forceStart);
+    upload(forceTerms_, model_.forceTerms);
+    forces_.resizeDiscard(model_.support.size());
+    dirty_ = false;
+    timings.sort += seconds(t0);
+  }
+
+  void contactPass(int pass) {
+    const size_t nNodes = nodes_.size();
+    const int nBodies = shapes_.bodyCount();
+    nodeSums_.reserveDiscard(nNodes * nBodies);
+    exec_.forEach(nNodes, kernels::MtledContact{x_.data(), v_.data(), mass_.data(), carrier_.data(), shapes_.parts(),
+                                                 shapes_.partCount(), shapes_.bodies(), nBodies, nodeSums_.data(),
+                                                 pass});
+    exec_.forEach(nBodies, kernels::MtledSumContacts{nodeSums_.data(), nNodes, nBodies, shapes_.stepSums()});
+  }
+
+  mutable Exec exec_;
+  MtledSettings settings_;
+  ShapeSet<Exec> shapes_;
+  // host side: the nodes as added (motion current only while dirty_), reference
+  // positions, integration cells, materials; the model built from them
+  HostParticles nodes_;
+  std::vector<Vec3f> reference_;
+  std::vector<Vec3f> points_;
+  std::vector<float> pointVolumes_;
+  std::vector<uint32_t> pointSlot_;
+  std::vector<MaterialParams> materialTable_;
+  MtledModel model_;
+  bool dirty_ = false;
+  // Exec side: the dynamic state and the model the kernels read
+  ExecArray<Vec3f, Exec> x_, v_, X_;
+  ExecArray<float, Exec> mass_, volumes_;
+  ExecArray<uint32_t, Exec> carrier_, support_, pointObject_, forceStart_, forceTerms_;
+  ExecArray<Vec3f, Exec> gradients_, forces_;
+  ExecArray<MaterialParams, Exec> materials_;
+  ExecArray<ContactSums, Exec> nodeSums_;
+};
+
+}  // namespace mpm
