@@ -27,20 +27,16 @@
 #include "mpm/error.h"
 #include "mpm/output.h"
 #include "mpm/scene.h"
+#include "bench_report.h"
 #include "scenes/standard_scenes.h"
 
 namespace {
 
+using namespace mpm::bench;
+
 using mpm::scenes::HertzIndentation;
 constexpr double kR = HertzIndentation::kRadius;
 
-#if defined(__clang__)
-constexpr const char* kCompiler = "Clang " __clang_version__;
-#elif defined(__GNUC__)
-constexpr const char* kCompiler = "GCC " __VERSION__;
-#else
-constexpr const char* kCompiler = "unknown";
-#endif
 
 /// What the command line asks for.
 struct Options {
@@ -60,12 +56,6 @@ struct Row {
   double wallSeconds = 0;
 };
 
-std::string num(double v, int decimals) {
-  if (std::isnan(v)) return "–";
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", decimals, v);
-  return text;
-}
 
 Row runRow(const HertzIndentation::Setup& setup, const std::string& variant) {
   char label[96];
@@ -172,42 +162,10 @@ Fit fitFirstOrder(const std::vector<Row>& rows) {
   return f;
 }
 
-std::string cpuModel() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) != 0) continue;
-    const size_t colon = line.find(':');
-    if (colon != std::string::npos) return line.substr(line.find_first_not_of(" \t", colon + 1));
-  }
-  return "unknown";
-}
 
-std::string loadAverage() {
-  std::ifstream in("/proc/loadavg");
-  std::string one;
-  in >> one;
-  return one.empty() ? "?" : one;
-}
 
-std::string localDate() {
-  const std::time_t now = std::time(nullptr);
-  char text[64];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S %Z", std::localtime(&now));
-  return text;
-}
 
-std::string commandLine(int argc, char** argv) {
-  std::string line;
-  for (int i = 0; i < argc; ++i) line += (i ? " " : "") + std::string(argv[i]);
-  return line;
-}
 
-struct RunInfo {
-  std::string date, cpu, command, loadBefore;
-  unsigned hardwareThreads = 0;
-  bool complete = false;
-};
 
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   HertzIndentation::Setup scene;
@@ -277,11 +235,6 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   return m.str();
 }
 
-void writeFile(const std::string& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  f << text;
-  if (!f) throw mpm::Error("cannot write " + path);
-}
 
 void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   const std::filesystem::path stem(opt.out);

@@ -28,19 +28,15 @@
 #include "mpm/error.h"
 #include "mpm/output.h"
 #include "mpm/scene.h"
+#include "bench_report.h"
 #include "scenes/standard_scenes.h"
 
 namespace {
 
+using namespace mpm::bench;
+
 using mpm::scenes::CressimBench;
 
-#if defined(__clang__)
-constexpr const char* kCompiler = "Clang " __clang_version__;
-#elif defined(__GNUC__)
-constexpr const char* kCompiler = "GCC " __VERSION__;
-#else
-constexpr const char* kCompiler = "unknown";
-#endif
 
 constexpr int kWarmupFrames = 2;                   // untimed frames before each timed run
 constexpr size_t kLargeRunParticles = 500000;      // above this, --frames-large applies
@@ -301,12 +297,6 @@ void fillSpeedups(std::vector<Row>& rows) {
         r.speedup = one.msPerFrame / r.msPerFrame;
 }
 
-std::string num(double v, int decimals) {
-  if (std::isnan(v)) return "–";
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", decimals, v);
-  return text;
-}
 
 /// The results as a markdown table.
 std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
@@ -347,55 +337,10 @@ std::string csvTable(const std::vector<Row>& rows) {
   return t.str();
 }
 
-std::string cpuModel() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("model name", 0) != 0) continue;
-    const size_t colon = line.find(':');
-    if (colon != std::string::npos) return line.substr(line.find_first_not_of(" \t", colon + 1));
-  }
-  return "unknown";
-}
 
-std::string loadAverage() {
-  std::ifstream in("/proc/loadavg");
-  std::string one;
-  in >> one;
-  return one.empty() ? "?" : one;
-}
 
-std::string localDate() {
-  const std::time_t now = std::time(nullptr);
-  char text[64];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S %Z", std::localtime(&now));
-  return text;
-}
 
-/// argv as a shell would need it typed back.
-std::string commandLine(int argc, char** argv) {
-  std::string line;
-  for (int i = 0; i < argc; ++i) {
-    std::string a = argv[i];
-    const bool plain = !a.empty() && a.find_first_not_of(
-                                         "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                         "0123456789_-+=.,/:") == std::string::npos;
-    if (!plain) {
-      std::string quoted = "'";
-      for (char c : a) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
-      a = quoted + "'";
-    }
-    line += (i ? " " : "") + a;
-  }
-  return line;
-}
 
-/// Context a reader needs to compare these numbers with others.
-struct RunInfo {
-  std::string date, cpu, command, loadBefore;
-  unsigned hardwareThreads = 0;
-  bool complete = false;
-};
 
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   std::ostringstream m;
@@ -455,11 +400,6 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   return m.str();
 }
 
-void writeFile(const std::string& path, const std::string& text) {
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  f << text;
-  if (!f) throw mpm::Error("cannot write " + path);
-}
 
 /// Writes <out>.md and <out>.csv; called after each size so a long run leaves its rows.
 void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {

@@ -24,6 +24,7 @@
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/shape_conversion.h"
 #include "shapes/sdf_primitives.h"
+#include "body_sums.h"
 #include "solver_cases.h"
 
 namespace mpm {
@@ -44,23 +45,8 @@ Material softTissue() {
   return m;
 }
 
-/// Mass, centre of mass and momentum of several particle objects taken as one body.
-struct BodySum {
-  double mass = 0, com[3] = {0, 0, 0}, momentum[3] = {0, 0, 0};
-};
-BodySum sumOf(const Scene& scene, const std::vector<ParticleObjectId>& ids) {
-  BodySum b;
-  for (const ParticleObjectId id : ids) {
-    const ObjectSummary s = scene.summary(id);
-    b.mass += s.mass;
-    for (int a = 0; a < 3; ++a) {
-      b.com[a] += s.mass * s.centerOfMass[a];
-      b.momentum[a] += s.momentum[a];
-    }
-  }
-  for (int a = 0; a < 3; ++a) b.com[a] /= b.mass;
-  return b;
-}
+using test::BodySum;
+using test::sumOf;
 
 class BulletPhysics : public test::WorldAndSolver {};
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "mpm/scene.h"
+#include "body_sums.h"
 #include "solver_cases.h"
 
 namespace mpm {
@@ -54,23 +55,8 @@ Geometry box(Vec3f halfExtents) {
   return g;
 }
 
-/// Mass, centre of mass and momentum of several particle objects taken as one body.
-struct BodySum {
-  double mass = 0, com[3] = {0, 0, 0}, momentum[3] = {0, 0, 0};
-};
-BodySum sumOf(const Scene& scene, const std::vector<ParticleObjectId>& ids) {
-  BodySum b;
-  for (const ParticleObjectId id : ids) {
-    const ObjectSummary s = scene.summary(id);
-    b.mass += s.mass;
-    for (int a = 0; a < 3; ++a) {
-      b.com[a] += s.mass * s.centerOfMass[a];
-      b.momentum[a] += s.momentum[a];
-    }
-  }
-  for (int a = 0; a < 3; ++a) b.com[a] /= b.mass;
-  return b;
-}
+using test::BodySum;
+using test::sumOf;
 
 // ---------------------------------------------------------------------------------------
 // 1. Incline. A static box tilted by theta about z: its top face descends along +x, with
