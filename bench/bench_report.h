@@ -4,8 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <string>
+#include <thread>
+#include <utility>
 
 #include "mpm/error.h"
 
@@ -74,12 +78,44 @@ struct RunInfo {
   std::string date, cpu, command, loadBefore;
   unsigned hardwareThreads = 0;
   bool complete = false;
+
+  /// The machine and command now, before the runs.
+  static RunInfo now(int argc, char** argv) {
+    RunInfo info;
+    info.date = localDate();
+    info.cpu = cpuModel();
+    info.command = commandLine(argc, argv);
+    info.loadBefore = loadAverage();
+    info.hardwareThreads = std::thread::hardware_concurrency();
+    return info;
+  }
+
+  /// The report's title and the lines that say where and how it was measured; `build` is
+  /// the build type the benchmark was compiled with.
+  std::string header(const std::string& title, const std::string& build) const {
+    std::string h = "# " + title + "\n\n";
+    if (!complete) h += "**Incomplete: the run stopped or is still going; rows so far.**\n\n";
+    h += "- Date: " + date + "\n";
+    h += "- CPU: " + cpu + " (" + std::to_string(hardwareThreads) + " hardware threads)\n";
+    h += "- Build: " + build + ", compiler " + kCompiler + "\n";
+    h += "- Command: `" + command + "`\n";
+    h += "- Load average (1 min) before / after: " + loadBefore + " / " + loadAverage() + "\n\n";
+    return h;
+  }
 };
 
 inline void writeFile(const std::string& path, const std::string& text) {
   std::ofstream f(path, std::ios::binary | std::ios::trunc);
   f << text;
   if (!f) throw mpm::Error("cannot write " + path);
+}
+
+/// Writes each (suffix, text) to <stem><suffix>, making the stem's folder first.
+inline void writeResultFiles(const std::string& stem,
+                             std::initializer_list<std::pair<const char*, std::string>> files) {
+  const std::filesystem::path path(stem);
+  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path());
+  for (const auto& [suffix, text] : files) writeFile(stem + suffix, text);
 }
 
 }  // namespace mpm::bench

@@ -166,7 +166,6 @@ Fit fitFirstOrder(const std::vector<Row>& rows) {
 
 
 
-
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   HertzIndentation::Setup scene;
   scene.slabHalfWidth = scene.slabThickness = opt.slab * (float)kR;
@@ -174,13 +173,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   const double a = std::sqrt(kR * HertzIndentation::kMaxDepth);
   const double chi = a / scene.slabThickness;
   std::ostringstream m;
-  m << "# Hertz contact: rigid sphere into an elastic slab, CPU backend\n\n";
-  if (!info.complete) m << "**Incomplete: the run stopped or is still going; rows so far.**\n\n";
-  m << "- Date: " << info.date << "\n";
-  m << "- CPU: " << info.cpu << " (" << info.hardwareThreads << " hardware threads)\n";
-  m << "- Build: " << MPM_BENCH_BUILD_TYPE << ", compiler " << kCompiler << "\n";
-  m << "- Command: `" << info.command << "`\n";
-  m << "- Load average (1 min) before / after: " << info.loadBefore << " / " << loadAverage() << "\n\n";
+  m << info.header("Hertz contact: rigid sphere into an elastic slab, CPU backend", MPM_BENCH_BUILD_TYPE);
   m << "Scene (`mpm::scenes::HertzIndentation`, defined in mpm/scenes/standard_scenes.h): a kinematic"
        " sphere, R = "
     << num(1e3 * kR, 0) << " mm, frictionless (Frictional, friction 0, band 0), pressed into a slab"
@@ -235,13 +228,10 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   return m.str();
 }
 
-
 void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
-  const std::filesystem::path stem(opt.out);
-  if (stem.has_parent_path()) std::filesystem::create_directories(stem.parent_path());
-  writeFile(opt.out + ".md", markdownReport(info, opt, rows));
-  writeFile(opt.out + ".csv", csvTable(rows));
-  writeFile(opt.out + "_curves.csv", curvesCsv(rows));
+  writeResultFiles(opt.out, {{".md", markdownReport(info, opt, rows)},
+                             {".csv", csvTable(rows)},
+                             {"_curves.csv", curvesCsv(rows)}});
 }
 
 }  // namespace
@@ -268,12 +258,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", opt.out, "path stem: writes <out>.md, <out>.csv and <out>_curves.csv")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
-  RunInfo info;
-  info.date = localDate();
-  info.cpu = cpuModel();
-  info.command = commandLine(argc, argv);
-  info.loadBefore = loadAverage();
-  info.hardwareThreads = std::thread::hardware_concurrency();
+  RunInfo info = RunInfo::now(argc, argv);
 
   HertzIndentation::Setup base;
   base.slabHalfWidth = base.slabThickness = opt.slab * (float)kR;

@@ -297,7 +297,6 @@ void fillSpeedups(std::vector<Row>& rows) {
         r.speedup = one.msPerFrame / r.msPerFrame;
 }
 
-
 /// The results as a markdown table.
 std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
   std::ostringstream t;
@@ -341,17 +340,9 @@ std::string csvTable(const std::vector<Row>& rows) {
 
 
 
-
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   std::ostringstream m;
-  m << "# Throughput: CRESSim scene, CPU backend\n\n";
-  if (!info.complete) m << "**Incomplete: the run stopped or is still going; rows so far.**\n\n";
-  m << "- Date: " << info.date << "\n";
-  m << "- CPU: " << info.cpu << " (" << info.hardwareThreads << " hardware threads)\n";
-  m << "- Build: " << MPM_BENCH_BUILD_TYPE << ", compiler " << kCompiler << "\n";
-  m << "- Command: `" << info.command << "`\n";
-  m << "- Load average (1 min) before / after: " << info.loadBefore << " / " << loadAverage()
-    << "\n\n";
+  m << info.header("Throughput: CRESSim scene, CPU backend", MPM_BENCH_BUILD_TYPE);
   m << "Scene (BENCH_SCENES.md section 1, `mpm::scenes::CressimBench`): grid [-5.5, 5.5]^3,"
        " cell 0.2; a box of particles at spacing 0.1, mass 10 each, centred at the origin;"
        " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0). MLS-MPM and standard MPM take "
@@ -400,13 +391,9 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   return m.str();
 }
 
-
 /// Writes <out>.md and <out>.csv; called after each size so a long run leaves its rows.
 void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
-  const std::filesystem::path stem(opt.out);
-  if (stem.has_parent_path()) std::filesystem::create_directories(stem.parent_path());
-  writeFile(opt.out + ".md", markdownReport(info, opt, rows));
-  writeFile(opt.out + ".csv", csvTable(rows));
+  writeResultFiles(opt.out, {{".md", markdownReport(info, opt, rows)}, {".csv", csvTable(rows)}});
 }
 
 }  // namespace
@@ -456,12 +443,7 @@ int main(int argc, char** argv) {
     return 2;
   }
 
-  RunInfo info;
-  info.date = localDate();
-  info.cpu = cpuModel();
-  info.command = commandLine(argc, argv);
-  info.loadBefore = loadAverage();
-  info.hardwareThreads = std::thread::hardware_concurrency();
+  RunInfo info = RunInfo::now(argc, argv);
 
   std::vector<Row> rows;
   try {

@@ -24,7 +24,7 @@
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/shape_conversion.h"
 #include "shapes/sdf_primitives.h"
-#include "body_sums.h"
+#include "incline.h"
 #include "solver_cases.h"
 
 namespace mpm {
@@ -68,41 +68,23 @@ struct InclineResult {
 
 InclineResult runIncline(WorldType type, SolverType solver, double theta, float mu) {
   BulletWorld bw(type, kG);
-  const float dx = 0.01f, h = 0.5f * dx;  // 8 particles per cell
+  const test::Incline incline{theta};
   SceneSettings st;
   st.solver = solver;
-  st.domain.lower = {-0.35f, 0.f, -0.1f};
-  st.domain.upper = {0.35f, 0.5f, 0.1f};
-  st.dx = dx;
+  incline.configure(st);
   st.gravity = {0.f, -kG, 0.f};
   Scene scene(st);
 
-  const double c = std::cos(theta), s = std::sin(theta);
-  const double x0 = -0.2, y0 = 0.35;  // a point of the ramp's top face
+  const Vec3f centre = incline.rampCentre();
   const btTransform rampPose(btQuaternion(btVector3(0, 0, 1), (btScalar)-theta),
-                             btVector3((btScalar)(x0 - 0.05 * s), (btScalar)(y0 - 0.05 * c), 0));
-  btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(0.6f, 0.05f, 0.15f)), 0.f, rampPose);
+                             btVector3(centre.x, centre.y, centre.z));
+  const float* half = test::Incline::kRampHalf;
+  btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(half[0], half[1], half[2])), 0.f, rampPose);
   bullet::Coupler coupler(bw.world.get(), scene);
   bullet::CouplingOptions opts;
   opts.contact.friction = mu;
   coupler.addRigidBody(ramp, opts);
-
-  const int columns = 16, layers = 8;  // 8 cm along x, 4 cm tall, 5 cm deep
-  std::vector<ParticleObjectId> ids;
-  for (int i = 0; i < columns; ++i) {
-    ParticleObjectDesc d;
-    const double x = x0 + (i - 0.5 * (columns - 1)) * h;
-    const double face = y0 - std::tan(theta) * (x - x0);
-    d.halfExtents = {0.5f * h, 0.5f * layers * h, 0.025f};
-    d.center = {(float)x, (float)(face + 0.5 * h / c + 0.5 * (layers - 1) * h), 0.f};
-    d.material = softTissue();
-    ids.push_back(scene.addParticleObject(d));
-  }
-  auto along = [&](const double v[3]) { return v[0] * c - v[1] * s; };
-  auto slopeSpeed = [&](const BodySum& b) {
-    const double v[3] = {b.momentum[0] / b.mass, b.momentum[1] / b.mass, b.momentum[2] / b.mass};
-    return along(v);
-  };
+  const std::vector<ParticleObjectId> ids = incline.addTissue(scene, softTissue());
 
   // settle 50 ms, then follow v_s(t) over 200 ms, frame by frame
   const float frame = 1.f / 60;
@@ -110,21 +92,22 @@ InclineResult runIncline(WorldType type, SolverType solver, double theta, float 
   InclineResult r;
   BodySum b = sumOf(scene, ids);
   r.t1 = scene.time();
-  const double v1 = slopeSpeed(b), start = along(b.com);
-  double n = 1, sT = r.t1, sV = v1, sTT = r.t1 * r.t1, sTV = r.t1 * v1, v2 = v1;
+  const double v1 = incline.slopeSpeed(b), start = incline.along(b.com);
+  test::LineFit fit;
+  fit.add(r.t1, v1);
+  double v2 = v1;
   r.maxSpeed = std::fabs(v1);
   for (int f = 0; f < 12; ++f) {
     bw.world->stepSimulation(frame, 10, 1.f / 240);
     b = sumOf(scene, ids);
-    const double t = scene.time();
-    v2 = slopeSpeed(b);
-    n += 1, sT += t, sV += v2, sTT += t * t, sTV += t * v2;
+    v2 = incline.slopeSpeed(b);
+    fit.add(scene.time(), v2);
     r.maxSpeed = std::fmax(r.maxSpeed, std::fabs(v2));
-    r.travel = along(b.com) - start;
+    r.travel = incline.along(b.com) - start;
   }
   r.t2 = scene.time();
   r.acceleration = (v2 - v1) / (r.t2 - r.t1);
-  r.fitted = (n * sTV - sT * sV) / (n * sTT - sT * sT);
+  r.fitted = fit.slope();
   return r;
 }
 

@@ -12,7 +12,7 @@
 #include <vector>
 
 #include "mpm/scene.h"
-#include "body_sums.h"
+#include "incline.h"
 #include "solver_cases.h"
 
 namespace mpm {
@@ -59,12 +59,7 @@ using test::BodySum;
 using test::sumOf;
 
 // ---------------------------------------------------------------------------------------
-// 1. Incline. A static box tilted by theta about z: its top face descends along +x, with
-// outward normal n = (sin, cos, 0) and downhill direction s = (cos, -sin, 0). The API
-// samples axis-aligned boxes only, so the tissue is a parallelogram of vertical columns
-// one particle wide, each starting half a particle spacing above the face: the whole
-// bottom touches from the start. Neighbouring columns share grid nodes and move as one
-// block. Closed form: a = g (sin theta - mu cos theta) if tan theta > mu, else rest.
+// 1. Incline (tests/incline.h), the ramp an MPM box shape.
 
 struct InclineResult {
   double acceleration = 0;  ///< least-squares slope of the CoM velocity along s [m/s^2]
@@ -73,56 +68,41 @@ struct InclineResult {
 };
 
 InclineResult runIncline(SceneSettings st, double theta, float mu) {
-  const float dx = 0.01f, h = 0.5f * dx;  // 8 particles per cell
-  st.domain.lower = {-0.35f, 0.f, -0.1f};
-  st.domain.upper = {0.35f, 0.5f, 0.1f};
-  st.dx = dx;
+  const test::Incline incline{theta};
+  incline.configure(st);
   st.gravity = {0.f, -kG, 0.f};
   Scene scene(st);
 
-  const double c = std::cos(theta), s = std::sin(theta);
-  const double x0 = -0.2, y0 = 0.35;  // a point of the ramp's top face
   ShapeDesc ramp;
-  ramp.parts = {box({0.6f, 0.05f, 0.15f})};
+  ramp.parts = {box({test::Incline::kRampHalf[0], test::Incline::kRampHalf[1], test::Incline::kRampHalf[2]})};
   ramp.pose.rotation = aboutZ(-theta);
-  ramp.pose.position = {(float)(x0 - 0.05 * s), (float)(y0 - 0.05 * c), 0.f};
+  ramp.pose.position = incline.rampCentre();
   ramp.contact.mode = ContactMode::Frictional;
   ramp.contact.friction = mu;
   scene.addShape(ramp);
 
-  const int columns = 16, layers = 8;  // 8 cm along x, 4 cm tall, 5 cm deep
-  std::vector<ParticleObjectId> ids;
-  for (int i = 0; i < columns; ++i) {
-    ParticleObjectDesc d;
-    const double x = x0 + (i - 0.5 * (columns - 1)) * h;
-    const double face = y0 - std::tan(theta) * (x - x0);
-    d.halfExtents = {0.5f * h, 0.5f * layers * h, 0.025f};
-    d.center = {(float)x, (float)(face + 0.5 * h / c + 0.5 * (layers - 1) * h), 0.f};
-    d.material.model = MaterialModel::FixedCorotated;
-    d.material.youngsModulus = 2e5f;
-    d.material.poissonRatio = 0.3f;
-    d.material.density = 1000.f;
-    ids.push_back(scene.addParticleObject(d));
-  }
-  auto along = [&](const double v[3]) { return v[0] * c - v[1] * s; };
+  Material tissue;
+  tissue.model = MaterialModel::FixedCorotated;
+  tissue.youngsModulus = 2e5f;
+  tissue.poissonRatio = 0.3f;
+  tissue.density = 1000.f;
+  const std::vector<ParticleObjectId> ids = incline.addTissue(scene, tissue);
 
   // settle 50 ms, then fit v_s(t) = v0 + a t over 200 ms
   const float frame = 0.01f;
   for (int f = 0; f < 5; ++f) scene.step(frame);
-  const double start = along(sumOf(scene, ids).com);
-  const int frames = 20;
-  double sT = 0, sV = 0, sTT = 0, sTV = 0;
+  const double start = incline.along(sumOf(scene, ids).com);
+  test::LineFit fit;
   InclineResult r;
-  for (int f = 1; f <= frames; ++f) {
+  for (int f = 1; f <= 20; ++f) {
     scene.step(frame);
     const BodySum b = sumOf(scene, ids);
-    const double v[3] = {b.momentum[0] / b.mass, b.momentum[1] / b.mass, b.momentum[2] / b.mass};
-    const double t = f * frame, vs = along(v);
-    sT += t, sV += vs, sTT += t * t, sTV += t * vs;
+    const double vs = incline.slopeSpeed(b);
+    fit.add(f * frame, vs);
     r.maxSpeed = std::fmax(r.maxSpeed, std::fabs(vs));
-    r.travel = along(b.com) - start;
+    r.travel = incline.along(b.com) - start;
   }
-  r.acceleration = (frames * sTV - sT * sV) / (frames * sTT - sT * sT);
+  r.acceleration = fit.slope();
   return r;
 }
 

@@ -1,4 +1,6 @@
-// Free fall: before any contact the centre of mass follows x0 + g t^2 / 2.
+// Free fall: before any contact the centre of mass follows x0 + g t^2 / 2, for every
+// solver (each applies gravity once per substep on the grid, PB-MPM in its first
+// iteration: symplectic Euler).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -6,14 +8,16 @@
 #include <vector>
 
 #include "mpm/scene.h"
+#include "solver_cases.h"
 
 namespace mpm {
 namespace {
 
 /// Falls a block for 0.6 s and returns the largest deviation of its centre of mass from
 /// the parabola, relative to the fall.
-double parabolaDeviation(int particlesPerCellAxis) {
+double parabolaDeviation(SolverType solver, int particlesPerCellAxis) {
   SceneSettings s;
+  s.solver = solver;
   s.domain.lower = {-0.5f, -2.5f, -0.5f};
   s.domain.upper = {0.5f, 0.5f, 0.5f};
   s.dx = 0.05f;
@@ -45,16 +49,22 @@ double parabolaDeviation(int particlesPerCellAxis) {
   return worst;
 }
 
-TEST(FreeFall, CentreOfMassFollowsParabola) {
-  EXPECT_LT(parabolaDeviation(2), 1e-3) << "largest error relative to the fall distance";
+class FreeFall : public ::testing::TestWithParam<SolverType> {};
+
+TEST_P(FreeFall, CentreOfMassFollowsParabola) {
+  const double worst = parabolaDeviation(GetParam(), 2);
+  std::printf("%s: worst deviation %.3g of the fall\n", test::solverName(GetParam()).c_str(), worst);
+  EXPECT_LT(worst, 1e-3) << "largest error relative to the fall distance";
 }
+
+INSTANTIATE_TEST_SUITE_P(AllSolvers, FreeFall, test::allSolvers(), test::solverParamName());
 
 // One particle per cell puts every particle at a cell centre, where the B-spline stencil's
 // base flips at a half-cell: binning and the transfers must agree on it to the last bit
 // (they once disagreed by one cell when the compiler fused the multiply-add in one place
 // and not the other, and the block tile was written out of range: NaN at the first step).
-TEST(FreeFall, ParticlesAtCellCentresFallLikeTheRest) {
-  EXPECT_LT(parabolaDeviation(1), 1e-3) << "largest error relative to the fall distance";
+TEST(FreeFallAtCellCentres, ParticlesFallLikeTheRest) {
+  EXPECT_LT(parabolaDeviation(SolverType::MlsMpm, 1), 1e-3) << "largest error relative to the fall distance";
 }
 
 // Particles at cell centres resting on a slip floor: the stencil's far corner then gets a
@@ -64,7 +74,7 @@ TEST(FreeFall, ParticlesAtCellCentresFallLikeTheRest) {
 // settling into the wall band and the elastic sag only (measured 7.4 mm with one particle
 // per cell, 6.1 mm with 8; bound 20 mm, half the block). One point per cell integrates
 // stress poorly (softer: see README limits); 2 per axis is the default.
-TEST(FreeFall, ParticlesAtCellCentresRestOnTheFloor) {
+TEST(FreeFallAtCellCentres, ParticlesRestOnTheFloor) {
   for (int perAxis : {1, 2}) {
     SceneSettings s;
     s.dx = 0.01f;

@@ -1,7 +1,7 @@
-// The three particle-grid solvers behind SceneSettings::solver: the same physics checks
-// for each, with per-solver tolerances where a solver is inherently less accurate, and
-// the checks particular to one solver (standard MPM against MLS-MPM on a bouncing block,
-// PB-MPM's iteration-dependent stiffness and its stability at dt = 0.02 s).
+// The checks particular to the solver choice: standard MPM against MLS-MPM on a bouncing
+// block, PB-MPM's iteration-dependent stiffness and its stability at dt = 0.02 s, and the
+// solver settings' validation. The shared physics suites (free fall, conservation, walls,
+// contact, coupling) run once per solver in their own files (tests/solver_cases.h).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,77 +13,9 @@
 #include "mpm/error.h"
 #include "mpm/scene.h"
 #include "scenes/standard_scenes.h"
-#include "solver_cases.h"
 
 namespace mpm {
 namespace {
-
-using test::solverName;
-
-class Solvers : public ::testing::TestWithParam<SolverType> {};
-
-// Before any contact the centre of mass follows y0 - g t^2 / 2: every solver applies
-// gravity once per substep on the grid (PB-MPM in its first iteration), symplectic Euler.
-TEST_P(Solvers, FreeFallFollowsTheParabola) {
-  SceneSettings s;
-  s.domain.lower = {-0.5f, -2.5f, -0.5f};
-  s.domain.upper = {0.5f, 0.5f, 0.5f};
-  s.dx = 0.05f;
-  s.solver = GetParam();
-  s.substeps.fixedSubsteps = 50;  // 2e-4 s: Euler's drift dt / (2 t) stays below 3e-4 of the fall
-  Scene scene(s);
-  ParticleObjectDesc d;
-  d.center = {0.f, 0.2f, 0.f};
-  d.halfExtents = {0.1f, 0.1f, 0.1f};
-  d.material.youngsModulus = 1e5f;
-  const ParticleObjectId id = scene.addParticleObject(d);
-  const double y0 = scene.summary(id).centerOfMass[1];
-  const double T = 0.6, fall = 0.5 * 9.81 * T * T;
-  double worst = 0;
-  for (int f = 1; f <= 60; ++f) {
-    scene.step(0.01f);
-    const double t = 0.01 * f;
-    worst = std::max(worst, std::abs(scene.summary(id).centerOfMass[1] - (y0 - 0.5 * 9.81 * t * t)) / fall);
-  }
-  std::printf("%s: worst deviation %.3g of the fall\n", solverName(GetParam()).c_str(), worst);
-  EXPECT_LT(worst, 1e-3);
-}
-
-// A spinning, moving block without gravity or walls in reach: linear momentum is kept to
-// float rounding by every solver (the transfers conserve it). Angular momentum over the
-// 0.5 s (a quarter turn): MLS-MPM keeps it to rounding (APIC, 1% bound; measured 6e-7).
-// PB-MPM's transfers are APIC too, but its per-particle constraint projection replaces C,
-// spin part included, without balancing the torques (Jacobi PBD does not conserve angular
-// momentum): measured 3.8% lost, bound 5%. Standard MPM has no affine field: each P2G keeps
-// the grid's angular momentum but drops the particles' spin about their own positions,
-// and the PIC share of the update (5%) feeds that loss back every substep: measured 78%
-// lost, bound 90% (use MLS-MPM or PB-MPM where rotation matters).
-TEST_P(Solvers, MomentumOfASpinningBlock) {
-  SceneSettings s;
-  s.domain.lower = {-1.f, -1.f, -1.f};
-  s.domain.upper = {1.f, 1.f, 1.f};
-  s.dx = 0.05f;
-  s.gravity = {0.f, 0.f, 0.f};
-  s.solver = GetParam();
-  Scene scene(s);
-  ParticleObjectDesc d;
-  d.halfExtents = {0.15f, 0.1f, 0.12f};
-  d.velocity = {0.1f, 0.05f, -0.08f};
-  d.angularVelocity = {0.f, 0.f, 3.f};
-  d.material.youngsModulus = 2e4f;
-  const ParticleObjectId id = scene.addParticleObject(d);
-  const ObjectSummary a = scene.summary(id);
-  for (int f = 0; f < 50; ++f) scene.step(0.01f);  // 0.5 s, a quarter turn
-  const ObjectSummary b = scene.summary(id);
-  double pErr = 0;
-  for (int k = 0; k < 3; ++k) pErr = std::max(pErr, std::abs(b.momentum[k] - a.momentum[k]) / std::abs(a.momentum[0]));
-  const double lErr = std::abs(b.angularMomentum[2] - a.angularMomentum[2]) / std::abs(a.angularMomentum[2]);
-  std::printf("%s: momentum error %.3g, angular momentum change %.3g\n", solverName(GetParam()).c_str(), pErr, lErr);
-  EXPECT_LT(pErr, 1e-4);
-  EXPECT_LT(lErr, test::perSolver(GetParam(), 0.01, 0.90, 0.05));
-}
-
-INSTANTIATE_TEST_SUITE_P(AllSolvers, Solvers, test::allSolvers(), test::solverParamName());
 
 /// Centre-of-mass height of a soft block dropped on the floor, per frame.
 std::vector<double> bounce(SolverType solver) {
