@@ -79,6 +79,19 @@ TEST(Validation, DomainMustHavePositiveSize) {
   expectRejected([&] { Scene scene(s); }, "SceneSettings.domain.lower", "nan");
 }
 
+TEST(Validation, MirrorPlanesNeedAGridSolverAndMaterialAboveThem) {
+  SceneSettings s = goodSettings();
+  s.domain.mirrorLower[2] = true;
+  s.solver = SolverType::Mtled;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.domain.mirrorLower[2]", "true");
+  s.solver = SolverType::MlsMpm;
+  Scene scene(s);
+  ParticleObjectDesc d = goodBlock();
+  d.center.z = s.domain.mirrorPlane(2, s.dx);  // half of the block below the mirror plane
+  expectRejected([&] { scene.addParticleObject(d); }, "ParticleObjectDesc.center", "");
+  EXPECT_EQ(scene.particleCount(), 0u);
+}
+
 TEST(Validation, GravityAndSubstepPolicyMustBeFinite) {
   SceneSettings s = goodSettings();
   s.gravity.y = kInf;

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <tuple>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -115,6 +117,79 @@ TEST_P(Walls, SeparateWallLetsMaterialLeave) {
               solverName(GetParam()).c_str(), separate, slip);
   EXPECT_NEAR(separate, 1.0, 0.01);
   EXPECT_LT(slip, separate - 0.02);
+}
+
+// A sphere pressed on the axis of a block, with friction, gravity and a slip floor: the
+// whole block, and a quarter of it on two mirror planes through the axis.
+struct PressedBlock {
+  std::vector<Vec3f> x0, x;  ///< particle positions at the start and the end
+  ShapeImpulse impulse;      ///< summed over the run
+};
+
+PressedBlock pressBlock(SolverType solver, bool quarter) {
+  const float dx = 0.01f, half = 0.08f, height = 0.08f;
+  SceneSettings s = floorBox(solver, WallMode::Slip);
+  s.dx = dx;
+  const float wall = (float)s.domain.wallThickness * dx;
+  // the axis x = z = 0 on a node column, wallThickness cells above the lower faces
+  s.domain.lower = {-0.12f - wall, -wall, -0.12f - wall};
+  s.domain.upper = {0.12f + wall, 0.16f, 0.12f + wall};
+  if (quarter) {
+    s.domain.lower.x = s.domain.lower.z = -wall;
+    s.domain.mirrorLower[0] = s.domain.mirrorLower[2] = true;
+    EXPECT_EQ(s.domain.mirrorPlane(0, dx), 0.f);
+  }
+  Scene scene(s);
+  ParticleObjectDesc d;
+  d.center = quarter ? Vec3f{0.5f * half, 0.5f * height, 0.5f * half} : Vec3f{0.f, 0.5f * height, 0.f};
+  d.halfExtents = quarter ? Vec3f{0.5f * half, 0.5f * height, 0.5f * half} : Vec3f{half, 0.5f * height, half};
+  d.material.youngsModulus = 2e4f;
+  d.material.poissonRatio = 0.3f;
+  const ParticleObjectId id = scene.addParticleObject(d);
+  Geometry ball;
+  ball.type = GeometryType::Sphere;
+  ball.radius = 0.05f;
+  ShapeDesc sphere;
+  sphere.parts = {ball};
+  sphere.pose.position = {0.f, height + 0.05f + 0.005f, 0.f};
+  sphere.linearVelocity = {0.f, -0.1f, 0.f};
+  sphere.contact.mode = ContactMode::Frictional;
+  sphere.contact.friction = 0.3f;
+  const ShapeId sphereId = scene.addShape(sphere);
+  PressedBlock r;
+  scene.readPositions(id, r.x0);
+  for (int f = 0; f < 20; ++f) {  // 0.02 m of travel, 0.015 m into the block
+    scene.step(0.01f);
+    const ShapeImpulse i = scene.shapeImpulse(sphereId);
+    r.impulse.linear += i.linear;
+    r.impulse.angular += i.angular;
+  }
+  scene.readPositions(id, r.x);
+  return r;
+}
+
+TEST_P(Walls, QuarterModelOnMirrorPlanesMovesAsTheWholeBody) {
+  const PressedBlock whole = pressBlock(GetParam(), false), quarter = pressBlock(GetParam(), true);
+  ASSERT_EQ(whole.x.size(), 4 * quarter.x.size());
+  // the whole block's particle at each quarter particle's start (same lattice)
+  auto key = [](Vec3f p) { return std::make_tuple(std::lround(p.x * 4e3), std::lround(p.y * 4e3), std::lround(p.z * 4e3)); };
+  std::map<std::tuple<long, long, long>, size_t> wholeAt;
+  for (size_t i = 0; i < whole.x0.size(); ++i) wholeAt[key(whole.x0[i])] = i;
+  double worst = 0, moved = 0;
+  for (size_t i = 0; i < quarter.x.size(); ++i) {
+    const auto it = wholeAt.find(key(quarter.x0[i]));
+    ASSERT_NE(it, wholeAt.end()) << "quarter particle " << i << " has no twin in the whole block";
+    worst = std::max(worst, (double)norm(quarter.x[i] - whole.x[it->second]));
+    moved = std::max(moved, (double)norm(quarter.x[i] - quarter.x0[i]));
+  }
+  const double force = whole.impulse.linear.y, quarterForce = 4.0 * quarter.impulse.linear.y;
+  std::printf("%s: largest displacement %.3g m; largest quarter-whole difference %.3g m; sphere impulse whole %.6g, "
+              "4 x quarter %.6g N s (%+.3g %%)\n",
+              solverName(GetParam()).c_str(), moved, worst, force, quarterForce, 100 * (quarterForce / force - 1));
+  EXPECT_GT(moved, 0.01) << "the sphere pressed the block";
+  // the same arithmetic in another order: float rounding only
+  EXPECT_LT(worst, 1e-5) << "a quarter particle strays from its twin in the whole block";
+  EXPECT_NEAR(quarterForce / force, 1.0, 1e-3) << "the quarter model takes a quarter of the sphere's impulse";
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, Walls, test::allSolvers(), test::solverParamName());

@@ -236,7 +236,8 @@ class SceneImpl {
           bool inDomain = geo.stencilInside(x);
           for (int a = 0; a < 3 && inDomain; ++a) {
             const float g = (x[a] - geo.lower[a]) * geo.invDx;
-            inDomain = g >= lowWall && g <= geo.cells[a] - lowWall;
+            const float low = settings.domain.mirrorLower[a] ? (float)settings.domain.wallThickness : lowWall;
+            inDomain = g >= low && g <= geo.cells[a] - lowWall;
           }
           if (!inDomain)
             throw InvalidArgument(
@@ -323,6 +324,7 @@ class SceneImpl {
     p.walls.enabled = settings.domain.walls ? 1 : 0;
     p.walls.mode = static_cast<int>(settings.domain.wallMode);
     p.walls.thickness = settings.domain.wallThickness;
+    for (int a = 0; a < 3; ++a) p.walls.mirror |= settings.domain.mirrorLower[a] ? 1 << a : 0;
     p.solver.flipBlend = settings.standardMpm.flipBlend;
     p.solver.iterations = settings.pbMpm.iterations;
     p.solver.relaxation = settings.pbMpm.relaxation;

@@ -73,6 +73,17 @@ struct DomainSettings {
   bool walls = true;              ///< false: no wall conditions (material must stay inside)
   WallMode wallMode = WallMode::Separate;
   int wallThickness = 2;          ///< cells at each face that the wall acts on (>= 1)
+  /// Lower faces (x, y, z) that are mirror (symmetry) planes: the scene holds the part of
+  /// a body symmetric about them on their upper side (a half, quarter or eighth model) and
+  /// the material moves as the whole body would. Each plane is the node layer
+  /// wallThickness cells inside its lower face, lower + wallThickness * dx, and replaces
+  /// that face's wall; material must start on its upper side. Shape impulses are those on
+  /// the modelled part (half of the whole per plane for a shape centred on it); bodies are
+  /// not mirrored, so use mirror planes with static or kinematic shapes.
+  bool mirrorLower[3] = {false, false, false};
+
+  /// Position of the mirror plane of `axis` (if mirrorLower[axis]) for cell size dx [m].
+  float mirrorPlane(int axis, float dx) const { return lower[axis] + (float)wallThickness * dx; }
 };
 
 /// How an `advance(dt)` is cut into substeps.

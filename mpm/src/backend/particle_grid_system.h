@@ -114,6 +114,7 @@ class ParticleGridSystem final : public SimBackend {
 
   void substep(const SubstepParams& s) override {
     if (count_ == 0) return;
+    walls_ = s.walls;
     Method::substep(*this, s);
     timings.substeps += 1;
   }
@@ -148,11 +149,14 @@ class ParticleGridSystem final : public SimBackend {
     exec_.particleToGrid(bins_, k);
     timings.p2g += seconds(t0);
   }
-  /// `k(n)` for every node of the active blocks.
+  /// `k(n)` for every node of the active blocks, after folding the mirror planes' ghost
+  /// nodes onto the material (grid/grid_update.h).
   template <class K>
   void updateGrid(const K& k) {
     const auto t0 = Clock::now();
-    exec_.forEach((size_t)grid().activeCount * kBlockNodes, k);
+    const size_t nodes = (size_t)grid().activeCount * kBlockNodes;
+    if (walls_.mirror) exec_.forEach(nodes, MirrorFold{grid(), walls_});
+    exec_.forEach(nodes, k);
     timings.gridUpdate += seconds(t0);
   }
   /// Places the shapes' parts at their bodies' poses (once per substep).
@@ -181,10 +185,12 @@ class ParticleGridSystem final : public SimBackend {
   }
   /// Advances the bodies' poses over the substep.
   void moveShapes(float dt) { shapes_.move(dt); }
-  /// G2P: `k(p, nodes)` for every particle, returning its StepCheck.
+  /// G2P: `k(p, nodes)` for every particle, returning its StepCheck; the mirror planes'
+  /// ghost nodes take their velocities first.
   template <class K>
   void gather(const K& k) {
     const auto t0 = Clock::now();
+    if (walls_.mirror) exec_.forEach((size_t)grid().activeCount * kBlockNodes, MirrorUnfold{grid(), walls_});
     exec_.gridToParticle(bins_, k);
     timings.g2p += seconds(t0);
   }
@@ -238,6 +244,7 @@ class ParticleGridSystem final : public SimBackend {
   GridGeometry geo_;
   typename Exec::Binning bins_;
   size_t count_ = 0;
+  WallParams walls_;  ///< of the current substep
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_;
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER

@@ -57,6 +57,10 @@ void sceneSettings(const SceneSettings& s) {
                             "gives more than 16384 cells along one axis of the domain");
   }
   atLeast("SceneSettings.domain.wallThickness", s.domain.wallThickness, 1);
+  for (int a = 0; a < 3; ++a)
+    if (s.domain.mirrorLower[a] && s.solver == SolverType::Mtled)
+      throw InvalidArgument("SceneSettings.domain.mirrorLower[" + std::to_string(a) + "]", "true",
+                            "is not supported by the Mtled solver (it has no grid to mirror)");
   finite("SceneSettings.gravity", s.gravity);
   positive("SceneSettings.substeps.cflNumber", s.substeps.cflNumber);
   if (s.substeps.cflNumber > 1.f)

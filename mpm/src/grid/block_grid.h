@@ -89,6 +89,22 @@ struct GridView {
   GridNode* nodes = nullptr;               ///< kBlockNodes per active slot
   uint32_t activeCount = 0;
 
+  /// Global coordinates of node `n` (an index into the active pool).
+  MPM_HD void nodeCoords(uint32_t n, int idx[3]) const {
+    int bx, by, bz;
+    geo.blockCoords(activeBlocks[n / kBlockNodes], bx, by, bz);
+    const int local = (int)(n % kBlockNodes);
+    idx[0] = (bx << kBlockBits) + (local >> (2 * kBlockBits));
+    idx[1] = (by << kBlockBits) + ((local >> kBlockBits) & kBlockMask);
+    idx[2] = (bz << kBlockBits) + (local & kBlockMask);
+  }
+  /// Node (i, j, k) if it lies on the grid in an active block, else null.
+  MPM_HD GridNode* find(int i, int j, int k) const {
+    if (i < 0 || j < 0 || k < 0 || i > geo.cells[0] || j > geo.cells[1] || k > geo.cells[2]) return nullptr;
+    const int32_t slot =
+        blockSlot[geo.blockIndex(i >> kBlockBits, j >> kBlockBits, k >> kBlockBits)];
+    return slot < 0 ? nullptr : &node(i, j, k);
+  }
   /// Node of global coordinates (i, j, k); its block must be active.
   MPM_HD GridNode& node(int i, int j, int k) const {
     const int32_t slot =

@@ -9,6 +9,11 @@ struct WallParams {
   int enabled = 1;
   int mode = 2;       ///< static_cast<int>(WallMode): 0 sticky, 1 slip, 2 separate
   int thickness = 2;  ///< nodes from each face the wall acts on
+  /// Bit a set: the lower face of axis a is a mirror (symmetry) plane, the node layer
+  /// `thickness` (DomainSettings::mirrorLower); the nodes below it are ghosts.
+  int mirror = 0;
+
+  MPM_HD bool mirrored(int axis) const { return (mirror >> axis) & 1; }
 };
 
 /// Updates node `n` (index into the active pool): v = mv / m + dt g, then walls.
@@ -20,15 +25,13 @@ MPM_HD void gridUpdateNode(uint32_t n, const GridView& grid, float dt, Vec3f gra
     return;
   }
   Vec3f v = (1.f / node.mass) * node.mv + dt * gravity;
-  if (walls.enabled) {
-    int bx, by, bz;
-    grid.geo.blockCoords(grid.activeBlocks[n / kBlockNodes], bx, by, bz);
-    const int local = (int)(n % kBlockNodes);
-    const int idx[3] = {(bx << kBlockBits) + (local >> (2 * kBlockBits)),
-                        (by << kBlockBits) + ((local >> kBlockBits) & kBlockMask),
-                        (bz << kBlockBits) + (local & kBlockMask)};
+  if (walls.enabled || walls.mirror) {
+    int idx[3];
+    grid.nodeCoords(n, idx);
     for (int a = 0; a < 3; ++a) {
-      const bool atLower = idx[a] < walls.thickness;
+      if (walls.mirrored(a) && idx[a] == walls.thickness) v[a] = 0.f;  // on the mirror plane
+      if (!walls.enabled) continue;
+      const bool atLower = idx[a] < walls.thickness && !walls.mirrored(a);
       const bool atUpper = idx[a] > grid.geo.cells[a] - walls.thickness;
       if (!atLower && !atUpper) continue;
       if (walls.mode == 0) {
@@ -40,6 +43,86 @@ MPM_HD void gridUpdateNode(uint32_t n, const GridView& grid, float dt, Vec3f gra
   }
   node.mv = v;
 }
+
+// Mirror planes. The scene holds the part of a symmetric body on the upper side of each
+// mirror plane; its mirror images are not stored but the grid sees them. P2G of the
+// stored particles puts on a ghost node (below a plane) what their images put on the
+// ghost's mirror node, so folding the ghosts onto their mirror nodes gives those nodes
+// exactly what the whole body gives them. A node on a plane keeps only its own share
+// (the images would double its mass and tangential momentum and cancel the normal
+// momentum): its velocity is the whole body's, and what it exchanges with a shape is the
+// modelled part's share, so shape impulses are those of the modelled part. After the grid
+// update the ghosts take their mirror nodes' velocities, reflected, for G2P.
+
+/// Reflects the node coordinates `idx` in the mirror planes of the axes in `axes`; the
+/// sign of each reflected velocity component in `sign`.
+MPM_HD void reflectNode(const WallParams& walls, int axes, int idx[3], Vec3f& sign) {
+  sign = Vec3f{1.f, 1.f, 1.f};
+  for (int a = 0; a < 3; ++a)
+    if ((axes >> a) & 1) {
+      idx[a] = 2 * walls.thickness - idx[a];
+      sign[a] = -1.f;
+    }
+}
+
+/// Folds the ghost images of node `n` onto it (after P2G, before the grid update): every
+/// ghost is read and emptied by exactly one real node, so nodes run in parallel.
+struct MirrorFold {
+  GridView grid;
+  WallParams walls;
+  MPM_HD void operator()(size_t n) const {
+    int idx[3];
+    grid.nodeCoords((uint32_t)n, idx);
+    int above = 0;  // mirrored axes on which the node lies above the plane
+    for (int a = 0; a < 3; ++a) {
+      if (!walls.mirrored(a)) continue;
+      if (idx[a] < walls.thickness) return;  // a ghost: its real node folds it
+      if (idx[a] > walls.thickness) above |= 1 << a;
+    }
+    GridNode& node = grid.nodes[n];
+    for (int axes = above; axes; axes = (axes - 1) & above) {  // every non-empty subset
+      int g[3] = {idx[0], idx[1], idx[2]};
+      Vec3f sign;
+      reflectNode(walls, axes, g, sign);
+      GridNode* ghost = grid.find(g[0], g[1], g[2]);
+      if (!ghost || ghost->mass == 0.f) continue;
+      node.mass += ghost->mass;
+      node.mv += hadamard(sign, ghost->mv);
+      node.dmv += hadamard(sign, ghost->dmv);
+      for (int a = 0; a < 3; ++a)  // the image of x is 2 plane - x
+        node.mx[a] += sign[a] > 0.f ? ghost->mx[a] : 2.f * plane(a) * ghost->mass - ghost->mx[a];
+      *ghost = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}};
+    }
+    for (int a = 0; a < 3; ++a)
+      if (walls.mirrored(a) && idx[a] == walls.thickness) {  // the images cancel the normal part
+        node.mv[a] = 0.f;
+        node.dmv[a] = 0.f;
+        node.mx[a] = plane(a) * node.mass;
+      }
+  }
+  MPM_HD float plane(int a) const { return grid.geo.lower[a] + (float)walls.thickness * grid.geo.dx; }
+};
+
+/// Gives ghost node `n` its mirror node's velocity (mv) and old velocity (dmv), reflected
+/// (after the grid update and contact, before G2P).
+struct MirrorUnfold {
+  GridView grid;
+  WallParams walls;
+  MPM_HD void operator()(size_t n) const {
+    int idx[3];
+    grid.nodeCoords((uint32_t)n, idx);
+    int below = 0;
+    for (int a = 0; a < 3; ++a)
+      if (walls.mirrored(a) && idx[a] < walls.thickness) below |= 1 << a;
+    if (!below) return;
+    Vec3f sign;
+    reflectNode(walls, below, idx, sign);
+    const GridNode* real = grid.find(idx[0], idx[1], idx[2]);
+    GridNode& node = grid.nodes[n];
+    node.mv = real ? hadamard(sign, real->mv) : Vec3f{0.f, 0.f, 0.f};
+    node.dmv = real ? hadamard(sign, real->dmv) : Vec3f{0.f, 0.f, 0.f};
+  }
+};
 
 /// The grid update of a whole substep as a per-node kernel.
 struct GridUpdate {
