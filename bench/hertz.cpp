@@ -45,6 +45,7 @@ struct Options {
   float loadingTransits = 20.f;           ///< time from d = 0 to 0.1 R [H / c_p]
   float slab = 2.f;                       ///< slab half-width and thickness [R]
   int sensitivity = 4;  ///< R / dx of the loading-rate and slab-size rows; 0: none
+  bool whole = false;   ///< the whole slab, not a quarter on mirror planes
   std::string out = "bench/results/hertz";  ///< path stem of the results
 };
 
@@ -181,8 +182,14 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
     << num(HertzIndentation::kYoungsModulus / 1e3, 0) << " kPa, nu = " << num(HertzIndentation::kPoissonRatio, 2)
     << ", rho = " << num(HertzIndentation::kDensity, 0) << " kg/m^3, 8 particles per cell, "
     << num(2 * opt.slab, 1) << "R x " << num(2 * opt.slab, 1) << "R wide and H = " << num(opt.slab, 1)
-    << "R thick, free sides, on a slip floor (the domain wall), gravity 0. Grid: dx = R / (R/dx), the slab's"
-       " top surface on a node layer and the sphere's axis on a node column at every resolution.\n\n";
+    << "R thick, free sides, on a slip floor (the domain wall), gravity 0. "
+    << (opt.whole ? "The whole slab is modelled."
+                  : "A quarter of the slab is modelled, on mirror planes x = 0 and z = 0 through the sphere's"
+                    " axis (`DomainSettings::mirrorLower`; tests/test_walls.cpp checks a quarter model against"
+                    " the whole body to 4e-8 m): `particles` counts the stored quarter, forces are the whole"
+                    " slab's.")
+    << " Grid: dx = R / (R/dx), the slab's top surface on a node layer and the sphere's axis on a node"
+       " column at every resolution.\n\n";
   m << "- Depth d: travel of the sphere since its bottom touched the slab's top surface (top particle"
        " layer plus half a particle spacing). The grid feels the sphere before that (the MPM standoff):"
        " the top particles put mass on the node layer one cell above the surface; the last column is"
@@ -255,6 +262,7 @@ int main(int argc, char** argv) {
                  "R/dx of the rows that load twice as slowly and use 1.5x and 2x larger slabs; 0: none")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_flag("--whole", opt.whole, "model the whole slab (default: a quarter on the mirror planes x = z = 0)");
   app.add_option("--out", opt.out, "path stem: writes <out>.md, <out>.csv and <out>_curves.csv")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -265,6 +273,7 @@ int main(int argc, char** argv) {
   base.loadingTransits = opt.loadingTransits;
   base.backend = mpm::Backend::Cpu;
   base.threads = opt.threads;
+  base.quarter = !opt.whole;
 
   std::vector<Row> rows;
   try {

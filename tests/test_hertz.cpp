@@ -34,6 +34,7 @@ constexpr double kStandoffTolerance = 0.10;
 TEST_P(Hertz, CoarsestResolutionWithinTheBenchmarkTolerance) {
   HertzIndentation::Setup setup;
   setup.cellsPerRadius = 4;
+  setup.quarter = true;  // the bench's model; the whole slab gives the same row
   setup.backend = GetParam();
   const HertzIndentation::Run run = HertzIndentation::run(setup);
   const HertzIndentation::Comparison c = HertzIndentation::compare(run);

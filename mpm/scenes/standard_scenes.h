@@ -71,6 +71,10 @@ struct HertzIndentation {
     float slabHalfWidth = 2.f * kRadius;   ///< in x and z [m]
     float slabThickness = 2.f * kRadius;   ///< H [m]
     float loadingTransits = 20.f;          ///< time from d = 0 to kMaxDepth [H / c_p]
+    /// Model a quarter of the slab, on mirror planes x = 0 and z = 0 through the sphere's
+    /// axis (DomainSettings::mirrorLower): the same motion at a quarter of the cost; the
+    /// forces reported are still the whole slab's.
+    bool quarter = false;
     Backend backend = Backend::Cpu;
     int threads = 0;                       ///< CPU threads; 0 = all
   };
@@ -100,7 +104,7 @@ struct HertzIndentation {
     Setup setup;
     std::vector<Sample> approach;  ///< frames at 5 V, to d = -dx / 4
     std::vector<Sample> loading;   ///< frames at V, to half a window past kMaxDepth
-    size_t particles = 0;
+    size_t particles = 0;  ///< particles stored (a quarter of the slab's with `quarter`)
     long long substeps = 0;
   };
   /// Builds the scene and presses the sphere in; `progress(frame, frames)` after each frame.
