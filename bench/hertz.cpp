@@ -210,10 +210,12 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        "- The slab is finite: a layer of thickness H on a frictionless base is stiffer than the"
        " half-space by 0.76 a/H + 0.57 (a/H)^2 (Dimitriadis et al. 2002, nu = 0.3), "
     << num(100 * (0.757 * chi + 0.574 * chi * chi), 1) << "% at d = 0.1 R (a/H = " << num(chi, 3)
-    << "); its free sides and its finite width make it softer. The `slab` rows measure the net effect"
-       " of 1.5x and 2x larger slabs (half-width = thickness); the `loading` row, of loading twice as"
-       " slowly. Both at one resolution: they separate the scene's own departures from Hertz from the"
-       " grid's.\n\n";
+    << "); its free sides and its finite width make it softer. "
+    << (opt.sensitivity > 0
+            ? "The `slab` rows measure the net effect of 1.5x and 2x larger slabs (half-width = thickness);"
+              " the `loading` row, of loading twice as slowly. Both at one resolution: they separate the"
+              " scene's own departures from Hertz from the grid's.\n\n"
+            : "This run has no sensitivity rows (--sensitivity 0).\n\n");
   m << "## Results\n\n" << markdownTable(rows) << "\n";
   const Fit fit = fitFirstOrder(rows);
   if (fit.valid) {
