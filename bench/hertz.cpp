@@ -43,8 +43,8 @@ struct Options {
   std::vector<int> resolutions{4, 6, 8};  ///< R / dx of the rows
   int threads = 0;                        ///< CPU threads; 0 = all
   float loadingTransits = 20.f;           ///< time from d = 0 to 0.1 R [H / c_p]
-  float slab = 2.f;                       ///< slab half-width and thickness [R]
-  int sensitivity = 4;  ///< R / dx of the loading-rate and slab-size rows; 0: none
+  float slab = 4.f;                       ///< slab half-width and thickness [R]
+  int sensitivity = 0;  ///< R / dx of the loading-rate and slab-size rows; 0: none
   bool whole = false;   ///< the whole slab, not a quarter on mirror planes
   std::string out = "bench/results/hertz";  ///< path stem of the results
 };
