@@ -46,6 +46,7 @@ struct Options {
   float slab = 4.f;                       ///< slab half-width and thickness [R]
   int sensitivity = 0;  ///< R / dx of the loading-rate and slab-size rows; 0: none
   bool whole = false;   ///< the whole slab, not a quarter on mirror planes
+  std::string runs;     ///< folder keeping each row's frames for reuse; "" = none
   std::string out = "bench/results/hertz";  ///< path stem of the results
 };
 
@@ -58,7 +59,62 @@ struct Row {
 };
 
 
-Row runRow(const HertzIndentation::Setup& setup, const std::string& variant) {
+/// The file of `runs` that keeps the frames of a run of `setup` (every setting that changes
+/// the result is in the name).
+std::string runFile(const std::string& runs, const HertzIndentation::Setup& s) {
+  char name[160];
+  std::snprintf(name, sizeof name, "/r%d_slab%.4gx%.4g_load%.4g_%s.csv", s.cellsPerRadius, s.slabHalfWidth,
+                s.slabThickness, s.loadingTransits, s.quarter ? "quarter" : "whole");
+  return runs + name;
+}
+
+void saveRun(const std::string& path, const Row& r) {
+  std::ofstream f(path);
+  f << "# particles,substeps,wall_s\n" << r.run.particles << ',' << r.run.substeps << ','
+    << num(r.wallSeconds, 3) << "\n# phase,depth_m,force_N\n";
+  char line[96];
+  for (const auto* phase : {&r.run.approach, &r.run.loading})
+    for (const HertzIndentation::Sample& s : *phase) {
+      std::snprintf(line, sizeof line, "%s,%.17g,%.17g\n", phase == &r.run.approach ? "approach" : "loading",
+                    s.depth, s.force);
+      f << line;
+    }
+  if (!f) throw std::runtime_error("cannot write " + path);
+}
+
+/// Reads a run saved by saveRun into `r`; false if there is none.
+bool loadRun(const std::string& path, Row& r) {
+  std::ifstream f(path);
+  if (!f) return false;
+  std::string line;
+  char comma;
+  std::getline(f, line);
+  if (!(f >> r.run.particles >> comma >> r.run.substeps >> comma >> r.wallSeconds))
+    throw std::runtime_error("malformed run file " + path);
+  std::getline(f, line);
+  std::getline(f, line);
+  while (std::getline(f, line)) {
+    const size_t a = line.find(','), b = line.find(',', a + 1);
+    if (a == std::string::npos || b == std::string::npos) throw std::runtime_error("malformed line in " + path);
+    const HertzIndentation::Sample s{std::stod(line.substr(a + 1, b - a - 1)), std::stod(line.substr(b + 1))};
+    (line.compare(0, a, "approach") == 0 ? r.run.approach : r.run.loading).push_back(s);
+  }
+  return true;
+}
+
+/// One row: the run kept in `runs` for this setup if there is one, else a new run (kept
+/// there when `runs` is set).
+Row runRow(const HertzIndentation::Setup& setup, const std::string& variant, const std::string& runs) {
+  if (!runs.empty()) {
+    Row kept;
+    kept.variant = variant;
+    kept.run.setup = setup;
+    if (loadRun(runFile(runs, setup), kept)) {
+      std::fprintf(stderr, "R/dx = %d: frames read from %s\n", setup.cellsPerRadius, runFile(runs, setup).c_str());
+      kept.cmp = HertzIndentation::compare(kept.run);
+      return kept;
+    }
+  }
   char label[96];
   std::snprintf(label, sizeof label, "R/dx = %d%s%s", setup.cellsPerRadius, variant.empty() ? "" : ", ",
                 variant.c_str());
@@ -73,6 +129,7 @@ Row runRow(const HertzIndentation::Setup& setup, const std::string& variant) {
   r.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (progress) progress->finish();
   r.cmp = HertzIndentation::compare(r.run);
+  if (!runs.empty()) saveRun(runFile(runs, setup), r);
   return r;
 }
 
@@ -265,6 +322,10 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_flag("--whole", opt.whole, "model the whole slab (default: a quarter on the mirror planes x = z = 0)");
+  app.add_option("--runs", opt.runs,
+                 "folder keeping each row's frames; a row already there is read instead of run (resume a"
+                 " study, or split it over processes and tabulate it once)")
+      ->check(CLI::ExistingDirectory);
   app.add_option("--out", opt.out, "path stem: writes <out>.md, <out>.csv and <out>_curves.csv")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
@@ -282,7 +343,7 @@ int main(int argc, char** argv) {
     for (const int n : opt.resolutions) {
       HertzIndentation::Setup s = base;
       s.cellsPerRadius = n;
-      rows.push_back(runRow(s, ""));
+      rows.push_back(runRow(s, "", opt.runs));
       const Row& r = rows.back();
       std::fprintf(stderr, "  R/dx = %d: %zu particles, %.1f s, L2 error %.1f%%, F/F_H - 1 at 0.1 R %.1f%%\n", n,
                    r.run.particles, r.wallSeconds, 100 * r.cmp.l2Error, 100 * r.cmp.errorAtMaxDepth);
@@ -292,13 +353,13 @@ int main(int argc, char** argv) {
       HertzIndentation::Setup slow = base;
       slow.cellsPerRadius = opt.sensitivity;
       slow.loadingTransits = 2 * base.loadingTransits;
-      rows.push_back(runRow(slow, "loading " + num(slow.loadingTransits, 0) + " transits"));
+      rows.push_back(runRow(slow, "loading " + num(slow.loadingTransits, 0) + " transits", opt.runs));
       writeResults(info, opt, rows);
       for (const float scale : {1.5f, 2.f}) {
         HertzIndentation::Setup big = base;
         big.cellsPerRadius = opt.sensitivity;
         big.slabHalfWidth = big.slabThickness = scale * base.slabThickness;
-        rows.push_back(runRow(big, "slab " + num(scale * opt.slab, 1) + " R"));
+        rows.push_back(runRow(big, "slab " + num(scale * opt.slab, 1) + " R", opt.runs));
         writeResults(info, opt, rows);
       }
     }
