@@ -14,7 +14,8 @@
 # (default 3), --grid (Taichi grid: dense, pointer or bitmasked; default dense), --out
 # (path stem, default bench/results/peers), --no-physics (skip the physics check).
 # Frames per run: 2.5e6 / particles, clamped to [5, 50] (50 at 8k, 20 at 125k, 5 at 1M),
-# the same for both, after 2 untimed warm-up frames each.
+# the same for both, after untimed warm-up frames (ours 2; Taichi 1, which holds its JIT
+# compilation: only the first substep compiles).
 #
 # Environment: MPM_BENCH_BUILD_DIR (default build), MPM_BENCH_JOBS (default 2) and the idle
 # check's MPM_BENCH_IDLE_MIN / _TRIES / _WAIT (bench/idle_check.sh).
@@ -56,7 +57,7 @@ if [[ ! -x "$venv/bin/python" ]] || ! "$venv/bin/python" -c "import taichi" 2>/d
   "$venv/bin/pip" install --quiet "taichi==1.7.4" numpy
 fi
 py="$venv/bin/python"
-peer=(env TI_LOG_LEVEL=warn "$py" bench/peers/taichi_cressim.py --grid "$grid")
+peer=(env TI_LOG_LEVEL=warn "$py" bench/peers/taichi_cressim.py --grid "$grid" --warmup 1)
 
 run_dir="$(mktemp -d "${TMPDIR:-/tmp}/run_peers.XXXXXX")"
 echo "run_peers.sh: raw results in $run_dir" >&2

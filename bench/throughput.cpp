@@ -224,6 +224,7 @@ struct Row {
   double otherLoad = 0;  ///< the most CPU other processes used during one of the runs [cores]
   int redone = 0;        ///< runs redone because the machine was busy
   double speedup = std::nan("");  ///< ms/frame at 1 thread over this row's; NaN without a 1-thread row
+  double vsPlain = std::nan("");  ///< this row's ms/frame over the plain scene's (same solver, size, threads)
   double cressim = std::nan("");  ///< CRESSim's serial M/s for this solver at this particle count
 };
 
@@ -368,6 +369,38 @@ void fillSpeedups(std::vector<Row>& rows) {
       if (one.solver.name == r.solver.name && one.variant.name == r.variant.name &&
           one.halfSize == r.halfSize && one.threads == 1)
         r.speedup = one.msPerFrame / r.msPerFrame;
+  for (Row& r : rows)
+    for (const Row& plain : rows)
+      if (plain.variant.name == "plain" && plain.solver.name == r.solver.name && plain.halfSize == r.halfSize &&
+          plain.threads == r.threads && plain.summarised)
+        r.vsPlain = r.msPerFrame / plain.msPerFrame;
+}
+
+/// With scene variants: each variant's time against the plain scene's, the pay-for-use pairs.
+std::string pairsTable(const std::vector<Row>& rows) {
+  std::ostringstream t;
+  bool any = false;
+  for (const Row& r : rows) any = any || r.variant.name != "plain";
+  if (!any) return "";
+  t << "## Pay only for what a scene uses: each variant against the plain scene\n\n"
+       "Medians of the repeats, and the fastest runs' ratio (on a busy machine the fastest run is"
+       " the least disturbed) and the CPU time's (all threads; less sensitive to other load than"
+       " wall time).\n\n"
+       "| solver | scene | particles | threads | ms/frame | plain ms/frame | time / plain |"
+       " fastest / plain's fastest | CPU time / plain's | bytes/particle | plain bytes/particle |\n"
+       "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const Row& r : rows) {
+    if (r.variant.name == "plain" || !r.summarised) continue;
+    for (const Row& p : rows)
+      if (p.variant.name == "plain" && p.solver.name == r.solver.name && p.halfSize == r.halfSize &&
+          p.threads == r.threads && p.summarised)
+        t << "| " << r.solver.label() << " | " << r.variant.name << " | " << r.particles << " | " << r.threads
+          << " | " << num(r.msPerFrame, 2) << " | " << num(p.msPerFrame, 2) << " | " << num(r.vsPlain, 3)
+          << " | " << num(r.msMin / p.msMin, 3) << " | " << num(r.cpuMsPerFrame / p.cpuMsPerFrame, 3)
+          << " | " << num(r.bytesPerParticle, 0) << " | " << num(p.bytesPerParticle, 0) << " |\n";
+  }
+  t << "\n";
+  return t.str();
 }
 
 /// The results as a markdown table.
@@ -481,6 +514,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
     << " times; the last try is kept whatever the load, and \"(busy)\" marks its row.\n\n";
   m << bandwidthText(bw);
   m << "## Results\n\n" << markdownTable(rows, opt) << "\n";
+  m << pairsTable(rows);
   m << "## Peer figures: CRESSim-MPM v2.2.0, CPU solvers (serial)\n\n"
        "From BENCH_SCENES.md section 1: measured on AMD EPYC Zen 3, 2 cores, while the machine"
        " was partly busy (treat as ±20%). M/s = million particle-substeps per second; PB-MPM in"

@@ -122,8 +122,8 @@ def table(run_dir, out_stem):
     md += ["Scene: BENCH_SCENES.md section 1 (`mpm::scenes::CressimBench`), MLS-MPM, dt = 0.002 s,"
            " 10 substeps per 0.02 s frame. Ours: `bench_throughput --solvers mls`. Peer:"
            " `bench/peers/taichi_cressim.py` (Taichi CPU backend, `cpu_max_num_threads` = threads,"
-           " the same substep; grid layout in the table). Both: 2 untimed warm-up frames (Taichi's"
-           " JIT compilation falls in them), then the timed frames; one process per run, ours and"
+           " the same substep; grid layout in the table). Untimed warm-up frames first (ours 2,"
+           " Taichi 1: its JIT compilation happens in the first substep), then the same timed frames; one process per run, ours and"
            " Taichi alternating, each row the median of its runs.", "",
            "- ratio = Taichi ms/frame / ours ms/frame: how many times ours outruns Taichi (> 1: ours faster).",
            f"- particle GB/s: ours M/s x {BYTES_PER_PARTICLE_SUBSTEP} B, the particle state a substep must"
