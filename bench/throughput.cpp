@@ -399,7 +399,17 @@ std::string pairsTable(const std::vector<Row>& rows) {
           << " | " << num(r.msMin / p.msMin, 3) << " | " << num(r.cpuMsPerFrame / p.cpuMsPerFrame, 3)
           << " | " << num(r.bytesPerParticle, 0) << " | " << num(p.bytesPerParticle, 0) << " |\n";
   }
-  t << "\n";
+  t << "\nWhat each pair measures:\n\n"
+       "- far-shapes: a shape anywhere in the scene turns on the accumulation of each node's material"
+       " centroid (w m x_p, for thin shapes) in P2G (`scatterParticles`, mpm/src/solvers/transfer.h),"
+       " whatever its distance; the contact itself tests each shape against each active block's bounds"
+       " before any node.\n"
+       "- big-domain: the active blocks follow the particles; only the dense block table (one int per"
+       " 4^3 nodes) grows with the domain, which shows in bytes/particle at small particle counts.\n"
+       "- neo-hookean: the library has no plasticity model (fixed corotated and decoupled Neo-Hookean"
+       " are both purely elastic), so there is no \"elastic skips plasticity\" pair to make; this row"
+       " compares the two elastic laws (Neo-Hookean needs no polar decomposition). There is no cutting"
+       " yet, so no \"no slicer\" pair either.\n\n";
   return t.str();
 }
 

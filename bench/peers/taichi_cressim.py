@@ -187,6 +187,9 @@ def main():
     ap.add_argument("--frames", type=int, default=50, help="timed frames")
     ap.add_argument("--warmup", type=int, default=2, help="untimed frames first (JIT compilation)")
     ap.add_argument("--grid", choices=["dense", "pointer", "bitmasked"], default="dense")
+    ap.add_argument("--serialize", action="store_true",
+                    help="run the particle loops serially (ti.loop_config(serialize=True)), so that"
+                         " Taichi may demote P2G's atomic adds; only for --threads 1")
     ap.add_argument("--trajectory", metavar="FILE", help="write frame,t,com_x,com_y,com_z,min_y per frame; no timing")
     args = ap.parse_args()
 
@@ -194,7 +197,7 @@ def main():
             log_level=ti.WARN)
     pos = lattice(args.half_size)
     n = pos.shape[0]
-    init, frame, x = build(n, args.grid)
+    init, frame, x = build(n, args.grid, args.serialize)
     init(pos)
 
     if args.trajectory:
@@ -224,7 +227,7 @@ def main():
     ms = 1e3 * wall / args.frames
     print(json.dumps({
         "peer": "taichi", "taichi": ".".join(str(v) for v in ti.__version__), "grid": args.grid,
-        "half_size": args.half_size, "particles": n, "threads": args.threads, "frames": args.frames,
+        "serialize": args.serialize, "half_size": args.half_size, "particles": n, "threads": args.threads, "frames": args.frames,
         "warmup_s": round(t_compile, 3), "ms_per_frame": round(ms, 4),
         "cpu_ms_per_frame": round(1e3 * cpu / args.frames, 4),
         "m_particle_substeps_per_s": round(n * SUBSTEPS / (1e-3 * ms) / 1e6, 5),
