@@ -7,7 +7,8 @@
 # alternately, one process per run, `--repeats` times per particle count and thread count,
 # and writes bench/results/peers.{md,csv} with the medians and the ratio per row.
 #
-#   bench/run_peers.sh                                   # 8k, 125k, 1M x 1, 2 threads x 3 runs
+#   bench/run_peers.sh                                   # 8k, 125k, 1M x 1, 2 threads x 3 runs:
+#                                                        # about 20-25 min on 2 idle cores
 #   bench/run_peers.sh --sizes 1 --threads 2 --repeats 1 # a quick look
 #
 # Options: --sizes (box half-sizes, default 1,2.5,5), --threads (default 1,2), --repeats
@@ -89,18 +90,20 @@ for ((rep = 1; rep <= repeats; rep++)); do
     frames="$(frames_for "$(particles_for "$h")")"
     for t in "${thread_list[@]}"; do
       tag="h${h}_t${t}_r${rep}"
-      run_ours() {
+      run_ours() {  # a failed run leaves its row out of the table
         "$ours" --solvers mls --sizes "$h" --threads "$t" --repeats 1 --frames "$frames" \
-          --frames-large "$frames" --retries 0 --bandwidth-mib 0 --out "$run_dir/ours_$tag" 2>/dev/null |
-          tail -1 >/dev/null
+          --frames-large "$frames" --retries 0 --bandwidth-mib 0 --out "$run_dir/ours_$tag" >/dev/null 2>"$run_dir/ours_$tag.log" ||
+          echo "run_peers.sh: our run $tag failed: $run_dir/ours_$tag.log" >&2
       }
       run_peer() {
-        "${peer[@]}" --half-size "$h" --threads "$t" --frames "$frames" >"$run_dir/taichi_$tag.json" 2>"$run_dir/taichi_$tag.log"
+        "${peer[@]}" --half-size "$h" --threads "$t" --frames "$frames" >"$run_dir/taichi_$tag.json" \
+          2>"$run_dir/taichi_$tag.log" || echo "run_peers.sh: Taichi run $tag failed: $run_dir/taichi_$tag.log" >&2
       }
       # alternate which goes first, so a drift in load does not favour one
       if ((rep % 2)); then run_ours; run_peer; else run_peer; run_ours; fi
-      o="$(awk -F, 'NR == 2 { print $9 }' "$run_dir/ours_$tag.csv")"
-      p="$("$py" -c 'import json,sys; print(json.loads(open(sys.argv[1]).read().splitlines()[-1])["ms_per_frame"])' "$run_dir/taichi_$tag.json")"
+      o="$(awk -F, 'NR == 2 { print $9 }' "$run_dir/ours_$tag.csv" 2>/dev/null || true)"
+      p="$("$py" -c 'import json,sys; print(json.loads(open(sys.argv[1]).read().splitlines()[-1])["ms_per_frame"])' \
+             "$run_dir/taichi_$tag.json" 2>/dev/null || echo "? (failed: $run_dir/taichi_$tag.log)")"
       printf 'run_peers.sh: run %d/%d, half-size %s, %s thread(s), %s frames: ours %s ms/frame, Taichi %s ms/frame (%ds)\n' \
         "$rep" "$repeats" "$h" "$t" "$frames" "$o" "$p" "$(($(date +%s) - start))" >&2
     done

@@ -402,8 +402,8 @@ std::string pairsTable(const std::vector<Row>& rows) {
   t << "\nWhat each pair measures:\n\n"
        "- far-shapes: a shape anywhere in the scene turns on the accumulation of each node's material"
        " centroid (w m x_p, for thin shapes) in P2G (`scatterParticles`, mpm/src/solvers/transfer.h),"
-       " whatever its distance; the contact itself tests each shape against each active block's bounds"
-       " before any node.\n"
+       " whatever its distance; the contact tests each shape against each active block's bounds"
+       " before any node, and G2P tests each particle against each part's bounds (`pushOutOfParts`).\n"
        "- big-domain: the active blocks follow the particles; only the dense block table (one int per"
        " 4^3 nodes) grows with the domain, which shows in bytes/particle at small particle counts.\n"
        "- neo-hookean: the library has no plasticity model (fixed corotated and decoupled Neo-Hookean"
@@ -481,6 +481,9 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
                            const std::vector<Bandwidth>& bw) {
   std::ostringstream m;
   m << info.header("Throughput: CRESSim scene, CPU backend", MPM_BENCH_BUILD_TYPE);
+  if (std::any_of(rows.begin(), rows.end(), [&](const Row& r) { return r.otherLoad > opt.maxOtherLoad; }))
+    m << "**Preliminary: rows marked (busy) ran while other processes took more than " << opt.maxOtherLoad
+      << " cores; their times and ratios are not for quoting. Rerun on an idle machine.**\n\n";
   m << "Scene (BENCH_SCENES.md section 1, `mpm::scenes::CressimBench`): grid [-5.5, 5.5]^3,"
        " cell 0.2; a box of particles at spacing 0.1, mass 10 each, centred at the origin;"
        " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0). MLS-MPM and standard MPM take "

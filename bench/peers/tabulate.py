@@ -54,8 +54,10 @@ def table(run_dir, out_stem):
         with open(path) as f:
             for r in csv.DictReader(f):
                 key = (int(r["particles"]), int(r["threads"]))
-                e = rows.setdefault(key, {"half": float(r["half_size_m"]), "ours": [], "peer": [], "other": []})
+                e = rows.setdefault(key, {"half": float(r["half_size_m"]), "ours": [], "peer": [], "other": [],
+                                          "ours_cpu": [], "peer_cpu": []})
                 e["ours"].append(float(r["ms_per_frame_median"]))
+                e["ours_cpu"].append(float(r["cpu_ms_per_frame"]))
                 e["ours_mem"] = int(r["memory_bytes"])
                 e["other"].append(float(r["other_load_cores"]))
                 e["frames"] = int(r["frames"])
@@ -66,8 +68,10 @@ def table(run_dir, out_stem):
             continue
         r = json.loads(lines[-1])
         key = (int(r["particles"]), int(r["threads"]))
-        e = rows.setdefault(key, {"half": r["half_size"], "ours": [], "peer": [], "other": []})
+        e = rows.setdefault(key, {"half": r["half_size"], "ours": [], "peer": [], "other": [],
+                                  "ours_cpu": [], "peer_cpu": []})
         e["peer"].append(r["ms_per_frame"])
+        e["peer_cpu"].append(r["cpu_ms_per_frame"])
         e["peer_grid"] = r["grid"]
         e["taichi"] = r["taichi"]
         if r.get("other_load_cores") is not None:
@@ -97,6 +101,8 @@ def table(run_dir, out_stem):
             "ours_ms_max": max(e["ours"]) if e["ours"] else None,
             "taichi_ms_per_frame": peer, "taichi_ms_min": min(e["peer"]) if e["peer"] else None,
             "taichi_ms_max": max(e["peer"]) if e["peer"] else None,
+            "ours_cpu_ms_per_frame": statistics.median(e["ours_cpu"]) if e["ours_cpu"] else None,
+            "taichi_cpu_ms_per_frame": statistics.median(e["peer_cpu"]) if e["peer_cpu"] else None,
             "ours_m_per_s": mps(ours), "taichi_m_per_s": mps(peer),
             "ratio_ours_over_taichi": None if ours is None or peer is None else peer / ours,
             "ours_particle_gb_per_s": gbs,
@@ -116,8 +122,9 @@ def table(run_dir, out_stem):
     busy = any((r["max_other_load_cores"] or 0) > 0.1 for r in out_rows)
     md = ["# Peers: our MLS-MPM against Taichi on the CRESSim scene, CPU", ""]
     if busy:
-        md += ["**Busy machine: other processes used more than 0.1 core during some runs (last column);"
-               " those times are inflated and the ratios uncertain.**", ""]
+        md += ["**Preliminary: busy machine. Other processes used more than 0.1 core during some runs (last"
+               " column); those times are inflated and the ratios uncertain. Rerun `bench/run_peers.sh` on"
+               " an idle machine for figures to quote.**", ""]
     md += [info.strip(), ""]
     md += ["Scene: BENCH_SCENES.md section 1 (`mpm::scenes::CressimBench`), MLS-MPM, dt = 0.002 s,"
            " 10 substeps per 0.02 s frame. Ours: `bench_throughput --solvers mls`. Peer:"
@@ -129,6 +136,8 @@ def table(run_dir, out_stem):
            f"- particle GB/s: ours M/s x {BYTES_PER_PARTICLE_SUBSTEP} B, the particle state a substep must"
            " read and write at the least (bench/throughput.cpp); % of the in-place-update bandwidth"
            " measured in this run with the same thread count.",
+           "- CPU ms/frame: process CPU time, all threads (median); on a busy machine less disturbed than"
+           " wall time, but it also counts time threads spend spinning at barriers.",
            "- other load: the most CPU other processes took during one of the row's runs (/proc/stat) [cores].",
            ""]
     if bw:
@@ -137,12 +146,14 @@ def table(run_dir, out_stem):
         md += [f"| {t} | {v[0]:.2f} | {v[1]:.2f} |" for t, v in sorted(bw.items())]
         md += [""]
     md += ["| particles | threads | frames | ours ms/frame | Taichi ms/frame | ratio ours/Taichi | ours M/s"
-           " | Taichi M/s | ours particle GB/s | % of bandwidth | runs | other load [cores] |",
-           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+           " | Taichi M/s | ours CPU ms/frame | Taichi CPU ms/frame | ours particle GB/s | % of bandwidth | runs"
+           " | other load [cores] |",
+           "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for r in out_rows:
         md.append(f"| {r['particles']} | {r['threads']} | {r['frames']} | {fmt(r['ours_ms_per_frame'], 2)}"
                   f" | {fmt(r['taichi_ms_per_frame'], 2)} | {fmt(r['ratio_ours_over_taichi'], 2)}"
                   f" | {fmt(r['ours_m_per_s'], 2)} | {fmt(r['taichi_m_per_s'], 2)}"
+                  f" | {fmt(r['ours_cpu_ms_per_frame'], 1)} | {fmt(r['taichi_cpu_ms_per_frame'], 1)}"
                   f" | {fmt(r['ours_particle_gb_per_s'], 2)} | {fmt(r['pct_of_bandwidth'], 0)}"
                   f" | {r['runs_ours']}+{r['runs_taichi']} | {fmt(r['max_other_load_cores'], 2)} |")
     md.append("")
