@@ -27,6 +27,8 @@ def main(csv_path, png_path):
     lines = defaultdict(list)  # (solver, threads) -> [(particles, ms per frame)]
     with open(csv_path, newline="") as f:
         for row in csv.DictReader(f):
+            if row.get("variant", "plain") != "plain":
+                continue  # the pay-for-use variants are compared in the report's pairs table
             key = (row["solver"], int(row["threads"]))
             lines[key].append((int(row["particles"]), float(row["ms_per_frame_median"])))
     fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=120)

@@ -10,52 +10,20 @@
 # Environment:
 #   MPM_BENCH_BUILD_DIR   build directory (default: build)
 #   MPM_BENCH_JOBS        parallel build jobs (default: 2)
-#   MPM_BENCH_IDLE_MIN    idle CPU percentage wanted before timing (default: 85)
-#   MPM_BENCH_IDLE_TRIES  idle checks before running anyway (default: 5)
-#   MPM_BENCH_IDLE_WAIT   seconds between idle checks (default: 30)
+#   MPM_BENCH_IDLE_MIN, MPM_BENCH_IDLE_TRIES, MPM_BENCH_IDLE_WAIT: the idle check
+#     (bench/idle_check.sh)
 set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
 build="${MPM_BENCH_BUILD_DIR:-build}"
 jobs="${MPM_BENCH_JOBS:-2}"
-idle_min="${MPM_BENCH_IDLE_MIN:-85}"
-idle_tries="${MPM_BENCH_IDLE_TRIES:-5}"
-idle_wait="${MPM_BENCH_IDLE_WAIT:-30}"
 
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$build" -j"$jobs" --target bench_throughput
 
-# Idle percentage of the second top sample (the first one covers the time since boot).
-idle_percent() {
-  LC_ALL=C top -bn2 -d1 | awk '/^%Cpu/ { n++; if (n == 2) { for (i = 2; i <= NF; i++)
-    if ($i ~ /^id/) { v = $(i - 1); sub(/,$/, "", v); print v; exit } } }'
-}
-
-if ! command -v top >/dev/null 2>&1; then
-  echo "run_throughput.sh: warning: top not found; cannot check that the CPU is idle" >&2
-else
-  for ((try = 1; ; try++)); do
-    idle="$(idle_percent || true)"
-    if [[ -z "$idle" ]]; then
-      echo "run_throughput.sh: warning: could not read the idle share from top" >&2
-      break
-    fi
-    if awk -v i="$idle" -v m="$idle_min" 'BEGIN { exit !(i >= m) }'; then
-      echo "run_throughput.sh: CPU ${idle}% idle" >&2
-      break
-    fi
-    if ((try >= idle_tries)); then
-      echo "run_throughput.sh: warning: CPU only ${idle}% idle after ${try} checks;" \
-           "running anyway, the times will be inflated" >&2
-      break
-    fi
-    echo "run_throughput.sh: warning: CPU only ${idle}% idle (want >= ${idle_min}%);" \
-         "check ${try}/${idle_tries}, waiting ${idle_wait} s" >&2
-    ps -eo pcpu,pid,comm --sort=-pcpu | head -4 >&2
-    sleep "$idle_wait"
-  done
-fi
+source "$repo/bench/idle_check.sh"
+wait_for_idle run_throughput.sh
 
 "$build/bench/bench_throughput" "$@"
 

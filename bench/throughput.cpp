@@ -5,6 +5,16 @@
 //
 //   bench_throughput --sizes 1,2.5 --threads 1,2 --frames 50 --out /tmp/throughput
 //
+// Scene variants (--variants) make the pairs of issue 6 item 3, "pay only for what a scene
+// uses": far-shapes (four kinematic shapes in the domain's top corners, far from every
+// particle), big-domain (the domain 8x larger in node count, the box the same), neo-hookean
+// (the other elastic law). The memory bandwidth of the machine is measured at the start of
+// the run (bandwidth.h) and each row's achieved bytes per second is set against it.
+//
+//   bench_throughput --sizes 1,2.5 --variants plain,far-shapes,big-domain
+//   bench_throughput --bandwidth-only --threads 1,2
+//   bench_throughput --trajectory /tmp/com.csv --sizes 1 --frames 250   # physics check
+//
 // Wall time only means something on an idle machine: bench/run_throughput.sh checks that
 // first. Nothing here asserts on time.
 #include <time.h>
@@ -28,6 +38,7 @@
 #include "mpm/error.h"
 #include "mpm/output.h"
 #include "mpm/scene.h"
+#include "bandwidth.h"
 #include "bench_report.h"
 #include "scenes/standard_scenes.h"
 
@@ -39,6 +50,58 @@ using mpm::scenes::CressimBench;
 
 
 constexpr int kWarmupFrames = 2;                   // untimed frames before each timed run
+
+/// Particle bytes an explicit substep (MLS-MPM, standard MPM) must move at the least, from
+/// the layout in mpm/src/core/particle_state.h: read x, v, C, F, mass, volume0, object
+/// (12 + 12 + 36 + 36 + 4 + 4 + 4 = 108) and write back x, v, C, F (96). `local` is only
+/// touched by the per-frame reorder, and the grid (in cache at these sizes) is not counted.
+constexpr double kBytesPerParticleSubstep = 2 * sizeof(mpm::Vec3f) + 2 * sizeof(mpm::Mat3f) + 3 * 4 +
+                                            2 * sizeof(mpm::Vec3f) + 2 * sizeof(mpm::Mat3f);
+static_assert(kBytesPerParticleSubstep == 204, "particle layout changed: recount the bytes");
+
+/// A variant of the CRESSim scene, for the "pay only for what a scene uses" pairs.
+struct SceneVariant {
+  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean
+
+  static SceneVariant parse(const std::string& name) {
+    if (name == "plain" || name == "far-shapes" || name == "big-domain" || name == "neo-hookean")
+      return SceneVariant{name};
+    throw mpm::InvalidArgument("--variants", name, "is not plain, far-shapes, big-domain or neo-hookean");
+  }
+  /// big-domain: [-11.1, 11.1]^3, 111 cells per axis (8.1x the nodes of 56^3), grown by
+  /// whole grid blocks (7 x 0.8 m) on each side so the box sits on the grid exactly as in
+  /// the plain scene.
+  void adjust(mpm::SceneSettings& s) const {
+    if (name == "big-domain") {
+      s.domain.lower = {-11.1f, -11.1f, -11.1f};
+      s.domain.upper = {11.1f, 11.1f, 11.1f};
+    }
+  }
+  mpm::ParticleObjectDesc box(float halfSize) const {
+    mpm::ParticleObjectDesc d = CressimBench::box(halfSize);
+    if (name == "neo-hookean") d.material.model = mpm::MaterialModel::NeoHookeanDecoupled;
+    return d;
+  }
+  /// far-shapes: a kinematic box, sphere, capsule and cylinder of size 0.3 m centred at
+  /// (+-4.6, 4.6, +-4.6), at least 1.5 m (7 cells) from the box's top corner at half-size 2.5
+  /// before it falls; none near the particles at half-sizes up to 2.5.
+  void addShapes(mpm::Scene& scene) const {
+    if (name != "far-shapes") return;
+    const mpm::GeometryType types[4] = {mpm::GeometryType::Box, mpm::GeometryType::Sphere,
+                                        mpm::GeometryType::Capsule, mpm::GeometryType::Cylinder};
+    for (int i = 0; i < 4; ++i) {
+      mpm::ShapeDesc d;
+      mpm::Geometry g;
+      g.type = types[i];
+      g.halfExtents = {0.3f, 0.3f, 0.3f};
+      g.radius = 0.3f;
+      g.halfHeight = 0.3f;
+      d.parts.push_back(g);
+      d.pose.position = {(i & 1) ? 4.6f : -4.6f, 4.6f, (i & 2) ? 4.6f : -4.6f};
+      scene.addShape(d);
+    }
+  }
+};
 constexpr size_t kLargeRunParticles = 500000;      // above this, --frames-large applies
 
 /// A solver as the benchmark runs it: MLS-MPM and standard MPM take CressimBench's 10
@@ -74,8 +137,9 @@ struct SolverCase {
     }
     return name;
   }
-  mpm::SceneSettings settings(int threads) const {
+  mpm::SceneSettings settings(int threads, const SceneVariant& variant) const {
     mpm::SceneSettings s = CressimBench::settings(mpm::Backend::Cpu, threads);
+    variant.adjust(s);
     s.solver = type;
     if (type == mpm::SolverType::PbMpm) {
       s.pbMpm.iterations = iterations;
@@ -88,6 +152,7 @@ struct SolverCase {
 /// What the command line asks for.
 struct Options {
   std::vector<std::string> solvers{"mls", "standard", "pb10", "pb20"};  ///< SolverCase names
+  std::vector<std::string> variants{"plain"};  ///< SceneVariant names
   std::vector<float> sizes{0.5f, 1.f, 1.5f, 2.5f, 5.f};  ///< box half-sizes [m]
   std::vector<int> threads{1, 2};                          ///< CPU worker threads per run
   int frames = 100;       ///< timed frames per run
@@ -98,6 +163,9 @@ struct Options {
   int retries = 10;         ///< redos of one run on a busy machine before keeping a busy one
   double retryWait = 20;    ///< pause before a redo [s]
   std::string out = "bench/results/throughput";  ///< path stem of the .md and .csv files
+  int bandwidthMiB = 256;      ///< array size of the bandwidth measurement; 0 skips it
+  bool bandwidthOnly = false;  ///< measure the bandwidth, print it as CSV, and stop
+  std::string trajectory;      ///< physics check: write the box's centre of mass per frame here
 };
 
 /// CRESSim-MPM v2.2.0 CPU solvers, serial, in M particle-substeps/s (PB-MPM: M
@@ -137,6 +205,7 @@ struct RunSample {
 /// One table row: a solver at a half-size and a thread count, over all its repeats.
 struct Row {
   SolverCase solver;
+  SceneVariant variant;
   float halfSize = 0;
   size_t particles = 0;
   int threads = 0;
@@ -151,9 +220,11 @@ struct Row {
   double mps = 0;  ///< million particle-substeps (PB-MPM: particle-iterations) per second
   double sortShare = 0, p2gShare = 0, gridShare = 0, g2pShare = 0, otherShare = 0;  ///< [%]
   double bytesPerParticle = 0;
+  double achievedGBs = 0;  ///< kBytesPerParticleSubstep at this row's M/s [1e9 bytes/s]
   double otherLoad = 0;  ///< the most CPU other processes used during one of the runs [cores]
   int redone = 0;        ///< runs redone because the machine was busy
   double speedup = std::nan("");  ///< ms/frame at 1 thread over this row's; NaN without a 1-thread row
+  double vsPlain = std::nan("");  ///< this row's ms/frame over the plain scene's (same solver, size, threads)
   double cressim = std::nan("");  ///< CRESSim's serial M/s for this solver at this particle count
 };
 
@@ -193,8 +264,9 @@ size_t particlesAt(float halfSize) {
 /// finite, abandons the run as soon as other processes are seen to take more CPU than that.
 RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
                   long long& framesDone) {
-  mpm::Scene scene(row.solver.settings(row.threads));
-  scene.addParticleObject(CressimBench::box(row.halfSize));
+  mpm::Scene scene(row.solver.settings(row.threads, row.variant));
+  scene.addParticleObject(row.variant.box(row.halfSize));
+  row.variant.addShapes(scene);
   for (int f = 0; f < kWarmupFrames; ++f) {
     scene.step(CressimBench::kFrameDt);
     progress.update(++framesDone);
@@ -285,6 +357,7 @@ void summarise(Row& r) {
   r.g2pShare = 100.0 * g2p / wall;
   r.otherShare = 100.0 - r.sortShare - r.p2gShare - r.gridShare - r.g2pShare;
   r.bytesPerParticle = (double)r.memoryBytes / (double)r.particles;
+  r.achievedGBs = r.mps * kBytesPerParticleSubstep / 1e3;
   r.cressim = cressimFigure(r.solver, r.particles);
   r.summarised = true;
 }
@@ -293,21 +366,64 @@ void summarise(Row& r) {
 void fillSpeedups(std::vector<Row>& rows) {
   for (Row& r : rows)
     for (const Row& one : rows)
-      if (one.solver.name == r.solver.name && one.halfSize == r.halfSize && one.threads == 1)
+      if (one.solver.name == r.solver.name && one.variant.name == r.variant.name &&
+          one.halfSize == r.halfSize && one.threads == 1)
         r.speedup = one.msPerFrame / r.msPerFrame;
+  for (Row& r : rows)
+    for (const Row& plain : rows)
+      if (plain.variant.name == "plain" && plain.solver.name == r.solver.name && plain.halfSize == r.halfSize &&
+          plain.threads == r.threads && plain.summarised)
+        r.vsPlain = r.msPerFrame / plain.msPerFrame;
+}
+
+/// With scene variants: each variant's time against the plain scene's, the pay-for-use pairs.
+std::string pairsTable(const std::vector<Row>& rows) {
+  std::ostringstream t;
+  bool any = false;
+  for (const Row& r : rows) any = any || r.variant.name != "plain";
+  if (!any) return "";
+  t << "## Pay only for what a scene uses: each variant against the plain scene\n\n"
+       "Medians of the repeats, and the fastest runs' ratio (on a busy machine the fastest run is"
+       " the least disturbed) and the CPU time's (all threads; less sensitive to other load than"
+       " wall time).\n\n"
+       "| solver | scene | particles | threads | ms/frame | plain ms/frame | time / plain |"
+       " fastest / plain's fastest | CPU time / plain's | bytes/particle | plain bytes/particle |\n"
+       "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (const Row& r : rows) {
+    if (r.variant.name == "plain" || !r.summarised) continue;
+    for (const Row& p : rows)
+      if (p.variant.name == "plain" && p.solver.name == r.solver.name && p.halfSize == r.halfSize &&
+          p.threads == r.threads && p.summarised)
+        t << "| " << r.solver.label() << " | " << r.variant.name << " | " << r.particles << " | " << r.threads
+          << " | " << num(r.msPerFrame, 2) << " | " << num(p.msPerFrame, 2) << " | " << num(r.vsPlain, 3)
+          << " | " << num(r.msMin / p.msMin, 3) << " | " << num(r.cpuMsPerFrame / p.cpuMsPerFrame, 3)
+          << " | " << num(r.bytesPerParticle, 0) << " | " << num(p.bytesPerParticle, 0) << " |\n";
+  }
+  t << "\nWhat each pair measures:\n\n"
+       "- far-shapes: a shape anywhere in the scene turns on the accumulation of each node's material"
+       " centroid (w m x_p, for thin shapes) in P2G (`scatterParticles`, mpm/src/solvers/transfer.h),"
+       " whatever its distance; the contact tests each shape against each active block's bounds"
+       " before any node, and G2P tests each particle against each part's bounds (`pushOutOfParts`).\n"
+       "- big-domain: the active blocks follow the particles; only the dense block table (one int per"
+       " 4^3 nodes) grows with the domain, which shows in bytes/particle at small particle counts.\n"
+       "- neo-hookean: the library has no plasticity model (fixed corotated and decoupled Neo-Hookean"
+       " are both purely elastic), so there is no \"elastic skips plasticity\" pair to make; this row"
+       " compares the two elastic laws (Neo-Hookean needs no polar decomposition). There is no cutting"
+       " yet, so no \"no slicer\" pair either.\n\n";
+  return t.str();
 }
 
 /// The results as a markdown table.
 std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
   std::ostringstream t;
-  t << "| solver | half-size [m] | particles | threads | frames | ms/frame | CPU ms/frame | M/s"
-       " | sort % | P2G % | grid % | G2P % | other % | bytes/particle | speed-up vs 1 thread"
+  t << "| solver | scene | half-size [m] | particles | threads | frames | ms/frame | CPU ms/frame | M/s"
+       " | particle GB/s | sort % | P2G % | grid % | G2P % | other % | bytes/particle | speed-up vs 1 thread"
        " | CRESSim M/s | ratio to CRESSim | other load [cores] |\n";
-  t << "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  t << "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Row& r : rows) {
-    t << "| " << r.solver.label() << " | " << num(r.halfSize, 1) << " | " << r.particles << " | " << r.threads << " | "
+    t << "| " << r.solver.label() << " | " << r.variant.name << " | " << num(r.halfSize, 1) << " | " << r.particles << " | " << r.threads << " | "
       << r.frames << " | " << num(r.msPerFrame, 2) << " | " << num(r.cpuMsPerFrame, 2) << " | "
-      << num(r.mps, 2) << " | " << num(r.sortShare, 1) << " | " << num(r.p2gShare, 1) << " | "
+      << num(r.mps, 2) << " | " << num(r.achievedGBs, 2) << " | " << num(r.sortShare, 1) << " | " << num(r.p2gShare, 1) << " | "
       << num(r.gridShare, 1) << " | " << num(r.g2pShare, 1) << " | " << num(r.otherShare, 1)
       << " | " << num(r.bytesPerParticle, 0) << " | " << num(r.speedup, 2) << " | "
       << num(r.cressim, 2) << " | " << num(r.mps / r.cressim, 2) << " | "
@@ -318,15 +434,16 @@ std::string markdownTable(const std::vector<Row>& rows, const Options& opt) {
 
 std::string csvTable(const std::vector<Row>& rows) {
   std::ostringstream t;
-  t << "solver,iterations,half_size_m,particles,threads,frames,repeats,ms_per_frame_median,ms_per_frame_min,"
-       "ms_per_frame_max,cpu_ms_per_frame,m_particle_substeps_per_s,sort_pct,p2g_pct,grid_pct,"
+  t << "solver,variant,iterations,half_size_m,particles,threads,frames,repeats,ms_per_frame_median,ms_per_frame_min,"
+       "ms_per_frame_max,cpu_ms_per_frame,m_particle_substeps_per_s,particle_gb_per_s,sort_pct,p2g_pct,grid_pct,"
        "g2p_pct,other_pct,memory_bytes,bytes_per_particle,speedup_vs_1_thread,"
        "cressim_m_per_s,ratio_to_cressim,other_load_cores,runs_redone\n";
   auto field = [](double v, int decimals) { return std::isnan(v) ? std::string() : num(v, decimals); };
   for (const Row& r : rows) {
-    t << r.solver.name << ',' << r.solver.iterations << ',' << num(r.halfSize, 3) << ',' << r.particles << ',' << r.threads << ',' << r.frames << ','
+    t << r.solver.name << ',' << r.variant.name << ',' << r.solver.iterations << ',' << num(r.halfSize, 3) << ',' << r.particles << ',' << r.threads << ',' << r.frames << ','
       << r.samples.size() << ',' << num(r.msPerFrame, 3) << ',' << num(r.msMin, 3) << ','
       << num(r.msMax, 3) << ',' << num(r.cpuMsPerFrame, 3) << ',' << num(r.mps, 4) << ','
+      << num(r.achievedGBs, 3) << ','
       << num(r.sortShare, 2) << ',' << num(r.p2gShare, 2) << ',' << num(r.gridShare, 2) << ','
       << num(r.g2pShare, 2) << ',' << num(r.otherShare, 2) << ',' << r.memoryBytes << ','
       << num(r.bytesPerParticle, 1) << ',' << field(r.speedup, 3) << ',' << field(r.cressim, 2)
@@ -340,9 +457,33 @@ std::string csvTable(const std::vector<Row>& rows) {
 
 
 
-std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
+/// The bandwidth lines of the report, or a note that none was measured.
+std::string bandwidthText(const std::vector<Bandwidth>& bw) {
+  std::ostringstream m;
+  if (bw.empty()) return "Memory bandwidth: not measured in this run (--bandwidth-mib 0).\n\n";
+  m << "Memory bandwidth measured at the start of this run (bench/bandwidth.h: float arrays of "
+    << bw[0].arrayBytes / (1 << 20) << " MiB, best of 8 passes; 12 bytes per element counted):\n\n"
+       "| threads | triad a = b + s c [GB/s] | in-place update a += s b [GB/s] |\n|---:|---:|---:|\n";
+  for (const Bandwidth& b : bw)
+    m << "| " << b.threads << " | " << num(b.triadGBs, 2) << " | " << num(b.updateGBs, 2) << " |\n";
+  m << "\n";
+  return m.str();
+}
+
+std::vector<Bandwidth> measureBandwidths(const Options& opt) {
+  std::vector<Bandwidth> bw;
+  if (opt.bandwidthMiB <= 0) return bw;
+  for (const int t : opt.threads) bw.push_back(measureBandwidth(t, (size_t)opt.bandwidthMiB));
+  return bw;
+}
+
+std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows,
+                           const std::vector<Bandwidth>& bw) {
   std::ostringstream m;
   m << info.header("Throughput: CRESSim scene, CPU backend", MPM_BENCH_BUILD_TYPE);
+  if (std::any_of(rows.begin(), rows.end(), [&](const Row& r) { return r.otherLoad > opt.maxOtherLoad; }))
+    m << "**Preliminary: rows marked (busy) ran while other processes took more than " << opt.maxOtherLoad
+      << " cores; their times and ratios are not for quoting. Rerun on an idle machine.**\n\n";
   m << "Scene (BENCH_SCENES.md section 1, `mpm::scenes::CressimBench`): grid [-5.5, 5.5]^3,"
        " cell 0.2; a box of particles at spacing 0.1, mass 10 each, centred at the origin;"
        " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0). MLS-MPM and standard MPM take "
@@ -362,6 +503,16 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " grid blocks, activating and clearing blocks, the per-frame reorder; grid: grid velocity"
        " update, gravity, walls; G2P includes the F update), summed over the repeats, as shares of"
        " the timed wall time; other: the rest (the step's worker-thread start, end-of-step check).\n"
+       "- particle GB/s: M/s times "
+    << kBytesPerParticleSubstep
+    << " bytes, the particle state an explicit substep must read and write at the least (read x, v,"
+       " C, F, mass, volume0, object: 108 B; write x, v, C, F: 96 B; the grid not counted), to set"
+       " against the measured bandwidth below. For PB-MPM rows it is per iteration and only"
+       " indicative.\n"
+       "- scene: plain is the CRESSim scene; far-shapes adds a kinematic box, sphere, capsule and"
+       " cylinder (0.3 m) at (+-4.6, 4.6, +-4.6), far from every particle up to half-size 2.5;"
+       " big-domain grows the domain to [-11.1, 11.1]^3 (8.1x the nodes; the box on the grid as"
+       " in plain); neo-hookean uses the decoupled Neo-Hookean law instead of fixed corotated.\n"
        "- bytes/particle: `Scene::memoryBytes()` (particles, sort scratch and grid blocks) over"
        " the particle count, after the run.\n"
        "- speed-up vs 1 thread: ms/frame of the 1-thread row of the same size, from this run,"
@@ -374,7 +525,9 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
     << opt.maxOtherLoad << " (checked about once a second) is abandoned and redone after "
     << opt.retryWait << " s, up to " << opt.retries
     << " times; the last try is kept whatever the load, and \"(busy)\" marks its row.\n\n";
+  m << bandwidthText(bw);
   m << "## Results\n\n" << markdownTable(rows, opt) << "\n";
+  m << pairsTable(rows);
   m << "## Peer figures: CRESSim-MPM v2.2.0, CPU solvers (serial)\n\n"
        "From BENCH_SCENES.md section 1: measured on AMD EPYC Zen 3, 2 cores, while the machine"
        " was partly busy (treat as ±20%). M/s = million particle-substeps per second; PB-MPM in"
@@ -392,8 +545,36 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
 }
 
 /// Writes <out>.md and <out>.csv; called after each size so a long run leaves its rows.
-void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
-  writeResultFiles(opt.out, {{".md", markdownReport(info, opt, rows)}, {".csv", csvTable(rows)}});
+void writeResults(const RunInfo& info, const Options& opt, const std::vector<Row>& rows,
+                  const std::vector<Bandwidth>& bw) {
+  writeResultFiles(opt.out, {{".md", markdownReport(info, opt, rows, bw)}, {".csv", csvTable(rows)}});
+}
+
+/// Physics check for the peers (bench/peers): MLS-MPM on the plain scene at the first size
+/// and thread count, the box's centre of mass and lowest particle after every frame, as CSV
+/// in the format bench/peers/taichi_cressim.py --trajectory writes.
+int writeTrajectory(const Options& opt) {
+  mpm::Scene scene(SolverCase::parse("mls").settings(opt.threads[0], SceneVariant{"plain"}));
+  const mpm::ParticleObjectId id = scene.addParticleObject(CressimBench::box(opt.sizes[0]));
+  std::ostringstream t;
+  t << "frame,t,com_x,com_y,com_z,min_y\n";
+  std::vector<mpm::Vec3f> x;
+  for (int f = 0; f <= opt.frames; ++f) {
+    if (f) scene.step(CressimBench::kFrameDt);
+    scene.readPositions(id, x);
+    double c[3] = {0, 0, 0}, minY = 1e30;
+    for (const mpm::Vec3f& p : x) {
+      for (int a = 0; a < 3; ++a) c[a] += p[a];
+      minY = std::min(minY, (double)p.y);
+    }
+    char line[160];
+    std::snprintf(line, sizeof line, "%d,%.4f,%.7f,%.7f,%.7f,%.7f\n", f,
+                  f * (double)CressimBench::kFrameDt, c[0] / x.size(), c[1] / x.size(), c[2] / x.size(), minY);
+    t << line;
+  }
+  writeResultFiles(opt.trajectory, {{"", t.str()}});
+  std::fprintf(stderr, "wrote %s\n", opt.trajectory.c_str());
+  return 0;
 }
 
 }  // namespace
@@ -435,15 +616,42 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", opt.out, "path stem of the results; writes <out>.md and <out>.csv")
       ->capture_default_str();
+  app.add_option("--variants", opt.variants,
+                 "scene variants: plain, far-shapes, big-domain, neo-hookean (pay-for-use pairs)")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--bandwidth-mib", opt.bandwidthMiB,
+                 "MiB per array of the memory bandwidth measurement at the start; 0 skips it")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_flag("--bandwidth-only", opt.bandwidthOnly,
+               "measure the memory bandwidth for each --threads count, print CSV, and stop");
+  app.add_option("--trajectory", opt.trajectory,
+                 "physics check: MLS-MPM at the first --sizes and --threads for --frames frames;"
+                 " the box's centre of mass per frame to this CSV file, no timing");
   CLI11_PARSE(app, argc, argv);
   try {
     for (const std::string& name : opt.solvers) SolverCase::parse(name);
+    for (const std::string& name : opt.variants) SceneVariant::parse(name);
   } catch (const mpm::InvalidArgument& e) {
     std::fprintf(stderr, "bench_throughput: %s\n", e.what());
     return 2;
   }
 
+  if (!opt.trajectory.empty()) return writeTrajectory(opt);
+  if (opt.bandwidthOnly) {
+    if (opt.bandwidthMiB <= 0) opt.bandwidthMiB = 256;
+    std::printf("threads,triad_gb_per_s,update_gb_per_s,array_mib\n");
+    for (const Bandwidth& b : measureBandwidths(opt))
+      std::printf("%d,%.3f,%.3f,%zu\n", b.threads, b.triadGBs, b.updateGBs, b.arrayBytes >> 20);
+    return 0;
+  }
+
   RunInfo info = RunInfo::now(argc, argv);
+  const std::vector<Bandwidth> bandwidth = measureBandwidths(opt);
+  for (const Bandwidth& b : bandwidth)
+    std::fprintf(stderr, "memory bandwidth, %d thread(s): triad %.2f GB/s, in-place update %.2f GB/s\n",
+                 b.threads, b.triadGBs, b.updateGBs);
 
   std::vector<Row> rows;
   try {
@@ -452,9 +660,11 @@ int main(int argc, char** argv) {
       const int frames = particles > kLargeRunParticles ? opt.framesLarge : opt.frames;
       const size_t first = rows.size();
       for (const std::string& name : opt.solvers)
+      for (const std::string& variant : opt.variants)
       for (const int threads : opt.threads) {
         Row r;
         r.solver = SolverCase::parse(name);
+        r.variant = SceneVariant::parse(variant);
         r.halfSize = half;
         r.particles = particles;
         r.threads = threads;
@@ -473,10 +683,10 @@ int main(int argc, char** argv) {
       for (size_t i = first; i < rows.size(); ++i) summarise(rows[i]);
       fillSpeedups(rows);
       for (size_t i = first; i < rows.size(); ++i)
-        std::fprintf(stderr, "  %s, %zu particles, %d thread(s): %.2f ms/frame, %.2f M/s\n",
-                     rows[i].solver.label().c_str(), rows[i].particles, rows[i].threads, rows[i].msPerFrame,
+        std::fprintf(stderr, "  %s, %s, %zu particles, %d thread(s): %.2f ms/frame, %.2f M/s\n",
+                     rows[i].solver.label().c_str(), rows[i].variant.name.c_str(), rows[i].particles, rows[i].threads, rows[i].msPerFrame,
                      rows[i].mps);
-      writeResults(info, opt, rows);
+      writeResults(info, opt, rows, bandwidth);
     }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_throughput: %s\n", e.what());
@@ -485,14 +695,14 @@ int main(int argc, char** argv) {
     for (const Row& r : rows)
       if (r.summarised) done.push_back(r);
     try {
-      writeResults(info, opt, done);
+      writeResults(info, opt, done, bandwidth);
     } catch (const std::exception&) {
     }
     return 1;
   }
 
   info.complete = true;
-  writeResults(info, opt, rows);
+  writeResults(info, opt, rows, bandwidth);
   std::printf("%s", markdownTable(rows, opt).c_str());
   std::fprintf(stderr, "wrote %s.md and %s.csv\n", opt.out.c_str(), opt.out.c_str());
   return 0;
