@@ -94,6 +94,28 @@ struct SubstepPolicy {
   int fixedSubsteps = 0;
 };
 
+/// Opt-in blow-up detection by energy. The checks for non-finite states and particles
+/// leaving the grid always run; this one costs a read-back of the particles per advance
+/// (one pass over them, as summary() does), so scenes that leave it off do not pay.
+/// Energy is kinetic + gravity's potential (relative to the start) + strain energy W(F)
+/// where the solver's forces come from F and E (MLS-MPM, standard MPM; not PB-MPM, whose
+/// stiffness is its iterations', nor MTLED, whose strain lives at integration points):
+/// a lower bound of the true energy, so the check never blames a solver for energy it
+/// does not measure. An advance fails with SimulationDiverged when the energy exceeds its
+/// start plus the work the shapes did on the material by more than `tolerance` times the
+/// energy supplied so far (initial kinetic + strain energy, the shapes' positive work, the
+/// largest potential energy gravity has released, and a noise floor).
+struct EnergyCheck {
+  bool enabled = false;
+  /// Allowed excess as a share of the energy supplied, > 0. Explicit blow-ups grow the
+  /// energy geometrically (many times the supply within a few steps); stable runs of the
+  /// stability benchmark stayed below 0.1 (bench/results/stability.md).
+  float tolerance = 0.5f;
+  /// Noise floor: energies below 1/2 M noiseSpeed^2 (M the scene's particle mass) are not
+  /// judged, so a scene at rest does not fail on rounding [m/s], >= 0.
+  float noiseSpeed = 1e-3f;
+};
+
 /// Everything a Scene needs at creation.
 struct SceneSettings {
   DomainSettings domain;
@@ -107,6 +129,7 @@ struct SceneSettings {
   /// policy its substep follows particle and shape speed only. MTLED also takes no more
   /// than its own stable step (MtledSettings::timeStepSafety).
   SubstepPolicy substeps;
+  EnergyCheck energyCheck;  ///< off by default
   Backend backend = Backend::Auto;
   int cpuThreads = 0;  ///< CPU backend worker threads; 0 = all hardware threads
 };
