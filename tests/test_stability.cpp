@@ -24,6 +24,27 @@ constexpr float kE = 1e4f, kNu = 0.3f, kDensity = 1000.f;
 /// c_p = sqrt((lambda + 2 mu) / rho) of the block's material [m/s].
 float waveSpeed() { return std::sqrt(kE * (1 - kNu) / ((1 + kNu) * (1 - 2 * kNu)) / kDensity); }
 
+/// The block's shape and material, at rest at the origin.
+ParticleObjectDesc block() {
+  ParticleObjectDesc d;
+  d.halfExtents = {kHalf, kHalf, kHalf};
+  d.material = {MaterialModel::FixedCorotated, kE, kNu, kDensity};
+  return d;
+}
+
+/// Settings of a scene of the block without gravity and walls, with the energy check.
+SceneSettings weightless(SolverType solver = SolverType::MlsMpm) {
+  SceneSettings s;
+  s.domain = {{-0.3f, -0.3f, -0.3f}, {0.3f, 0.3f, 0.3f}};
+  s.domain.walls = false;
+  s.dx = kDx;
+  s.gravity = {0.f, 0.f, 0.f};
+  s.solver = solver;
+  s.backend = Backend::Cpu;
+  s.energyCheck.enabled = true;
+  return s;
+}
+
 /// A spinning elastic block (1728 MPM particles or 343 MTLED nodes), no gravity, no walls
 /// and no shapes: nothing supplies energy, so its energy can only fall.
 struct SpinningBlock {
@@ -32,23 +53,14 @@ struct SpinningBlock {
   SpinningBlock(SolverType solver, int fixedSubsteps, float mtledSafety = 0.5f, float pbRelaxation = 1.f,
                 int pbIterations = 10)
       : scene([&] {
-          SceneSettings s;
-          s.domain = {{-0.3f, -0.3f, -0.3f}, {0.3f, 0.3f, 0.3f}};
-          s.domain.walls = false;
-          s.dx = kDx;
-          s.gravity = {0.f, 0.f, 0.f};
-          s.solver = solver;
-          s.backend = Backend::Cpu;
+          SceneSettings s = weightless(solver);
           s.substeps.fixedSubsteps = fixedSubsteps;
           s.mtled.timeStepSafety = mtledSafety;
           s.pbMpm.relaxation = pbRelaxation;
           s.pbMpm.iterations = pbIterations;
-          s.energyCheck.enabled = true;
           return s;
         }()) {
-    ParticleObjectDesc d;
-    d.halfExtents = {kHalf, kHalf, kHalf};
-    d.material = {MaterialModel::FixedCorotated, kE, kNu, kDensity};
+    ParticleObjectDesc d = block();
     d.angularVelocity = {0.f, 0.f, 5.f};  // rim speed 0.3 m/s
     d.particleSpacing = solver == SolverType::Mtled ? kDx : 0.f;
     id = scene.addParticleObject(d);
@@ -132,10 +144,7 @@ TEST(EnergyCheck, FreeFallTurnsReleasedIntoKineticEnergy) {
   s.dx = kDx;
   s.energyCheck.enabled = true;
   Scene scene(s);
-  ParticleObjectDesc d;
-  d.halfExtents = {kHalf, kHalf, kHalf};
-  d.material = {MaterialModel::FixedCorotated, kE, kNu, kDensity};
-  const ParticleObjectId id = scene.addParticleObject(d);
+  const ParticleObjectId id = scene.addParticleObject(block());
   const double y0 = scene.summary(id).centerOfMass[1];
   StepReport r;
   for (int f = 0; f < 20; ++f) r = scene.step(0.01f);
@@ -153,17 +162,8 @@ TEST(EnergyCheck, FreeFallTurnsReleasedIntoKineticEnergy) {
 // the plate's impulse times its velocity, so the block's kinetic energy (1/2 M v^2 once
 // it moves with the plate) stays within the work done, and the check does not fire.
 TEST(EnergyCheck, PlateWorkIsBooked) {
-  SceneSettings s;
-  s.domain = {{-0.3f, -0.3f, -0.3f}, {0.3f, 0.3f, 0.3f}};
-  s.domain.walls = false;
-  s.dx = kDx;
-  s.gravity = {0.f, 0.f, 0.f};
-  s.energyCheck.enabled = true;
-  Scene scene(s);
-  ParticleObjectDesc d;
-  d.halfExtents = {kHalf, kHalf, kHalf};
-  d.material = {MaterialModel::FixedCorotated, kE, kNu, kDensity};
-  const ParticleObjectId id = scene.addParticleObject(d);
+  Scene scene(weightless());
+  const ParticleObjectId id = scene.addParticleObject(block());
   ShapeDesc plate;
   Geometry box;
   box.type = GeometryType::Box;
