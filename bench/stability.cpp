@@ -240,7 +240,7 @@ double referenceStep(SolverType solver, int threads) {
 }
 
 Row sweepRun(SolverType solver, int threads, double k, double dtRef) {
-  Row row(solver, "sweep", "k = " + num(k, 3));
+  Row row(solver, "sweep", "k = " + num(k, 3) + " (dt = " + num(1e3 * k * dtRef, 4) + " ms)");
   Cylinder c;
   c.fixedSubsteps = 4;  // substeps of exactly k times the estimate; the energy checked every 4
   row.measure = "force after hold / reference";
@@ -266,7 +266,6 @@ std::vector<Row> sweep(SolverType solver, int threads, double& largestStable, do
   for (double k = 1; k <= cap && failed == 0; k *= 2) tryMultiple(k);
   for (double k = 0.5; stable == 0 && k > 0.05; k /= 2) tryMultiple(k);
   for (int i = 0; i < 4 && failed > 0 && stable > 0; ++i) tryMultiple(0.5 * (stable + failed));
-  for (Row& r : rows) r.variant += " (dt = " + num(1e3 * r.substepDt, 4) + " ms)";
   largestStable = failed == 0 ? -stable : stable;  // negative: never failed, at least |value|
   return rows;
 }
@@ -438,7 +437,7 @@ std::string markdownReport(const RunInfo& info, const std::vector<SweepResult>& 
     m << "| " << solverName(r.solver) << " | " << r.test << " | " << r.variant << " | " << outcome(r) << " | "
       << num(r.seconds, 3) << " | " << r.substeps << " | " << num(1e3 * r.substepDt, 4) << " | " << r.particles
       << " | " << num(r.wall, 1) << " | " << (r.substeps ? num(r.worstExcess, 3) : "–") << " | " << r.measure
-      << " | " << num(r.value, 3) << " |\n";
+      << " | " << (r.stable ? num(r.value, 3) : "–") << " |\n";
   m << "\n## Failure messages\n\n";
   for (const Row& r : rows)
     if (!r.stable || !r.ran)
@@ -461,7 +460,7 @@ std::string csvTable(const std::vector<Row>& rows) {
     t << solverName(r.solver) << ',' << csvEscape(r.test) << ',' << csvEscape(r.variant) << ','
       << (!r.ran ? "" : r.stable ? "1" : "0") << ',' << num(r.seconds, 4) << ',' << r.substeps << ',' << r.substepDt << ','
       << r.particles << ',' << num(r.wall, 2) << ',' << (r.substeps ? num(r.worstExcess, 4) : "") << ','
-      << csvEscape(r.measure) << ',' << num(r.value, 4) << ',' << csvEscape(r.message) << '\n';
+      << csvEscape(r.measure) << ',' << (r.stable ? num(r.value, 4) : "") << ',' << csvEscape(r.message) << '\n';
   return t.str();
 }
 
