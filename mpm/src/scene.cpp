@@ -273,6 +273,7 @@ class SceneImpl {
     rec.maxInitialSpeed = maxSpeed;
     maxParticleSpeed = std::max(maxParticleSpeed, maxSpeed);
     uploadMaterials();
+    account.started = false;  // the energy account starts again with the new object
     backend->append(add);
     if (meshless) backend->appendIntegrationCells(slot, cells);
     return {slot, rec.generation};
@@ -284,6 +285,7 @@ class SceneImpl {
     std::vector<uint8_t> keep(objects.size());
     for (size_t i = 0; i < objects.size(); ++i) keep[i] = objects[i].alive && i != id.index;
     backend->removeObjects(keep);
+    account.started = false;
     objects[id.index].alive = false;
     objects[id.index].generation++;
     objects[id.index].particles = 0;
@@ -295,10 +297,9 @@ class SceneImpl {
     backend->setMaterials(table);
   }
 
-  /// Substep count for an advance of dt: the CFL bound on the fastest elastic wave plus
-  /// the fastest particle and the solver's own stable step, unless the user fixed the count.
-  int substepCount(float dt) const {
-    if (settings.substeps.fixedSubsteps > 0) return settings.substeps.fixedSubsteps;
+  /// Longest substep: the CFL bound on the fastest elastic wave plus the fastest particle
+  /// or shape, and the solver's own stable step.
+  float maxSubstep() {
     float wave = 0.f;
     if (solverTraits(settings.solver).elasticCfl)
       for (const auto& o : objects)
@@ -310,6 +311,13 @@ class SceneImpl {
     const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
     float dtMax = backend->stableTimeStep();
     if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflNumber * settings.dx / speed);
+    return dtMax;
+  }
+
+  /// Substep count for an advance of dt, unless the user fixed the count.
+  int substepCount(float dt) {
+    if (settings.substeps.fixedSubsteps > 0) return settings.substeps.fixedSubsteps;
+    const float dtMax = maxSubstep();
     if (!(dtMax < std::numeric_limits<float>::infinity())) return 1;
     return std::max(1, (int)std::ceil(dt / dtMax - 1e-5f));
   }
@@ -339,16 +347,106 @@ class SceneImpl {
     return report;
   }
 
-  [[noreturn]] void reportDivergence(uint32_t particle) {
-    HostParticles all;
-    backend->download(all);
+  /// "particle 3 of object 0 is at (x) with velocity (v) and volume ratio J = 1 at t = 2 s"
+  std::string describeParticle(const HostParticles& all, uint32_t particle) const {
     std::ostringstream s;
     s << "particle " << all.local[particle] << " of object " << all.object[particle]
       << " is at " << validate::show(all.x[particle]) << " with velocity "
       << validate::show(all.v[particle]) << " and volume ratio J = det F = "
-      << determinant(all.F[particle]) << " at t = " << time
-      << " s: its state is not finite or it left the grid";
-    throw SimulationDiverged(s.str());
+      << determinant(all.F[particle]) << " at t = " << time << " s";
+    return s.str();
+  }
+
+  [[noreturn]] void reportDivergence(uint32_t particle) {
+    HostParticles all;
+    backend->download(all);
+    throw SimulationDiverged(describeParticle(all, particle) + ": its state is not finite or it left the grid");
+  }
+
+  /// The particles' energy sums, and the particle holding the most energy per unit mass
+  /// (where a blow-up grows fastest).
+  struct EnergySums {
+    double kinetic = 0, strain = 0, potential = 0, mass = 0;  // potential: -sum m g . x
+    uint32_t hottest = 0;
+  };
+
+  EnergySums measureEnergy(const HostParticles& all) const {
+    // W(F) is the stored energy only where F and E drive the forces (the grid's elastic
+    // CFL solvers); elsewhere kinetic + potential is a lower bound
+    const bool strain = solverTraits(settings.solver).elasticCfl;
+    EnergySums e;
+    double hottest = -1;
+    for (size_t i = 0; i < all.size(); ++i) {
+      const double m = all.mass[i];
+      const Vec3f v = all.v[i], x = all.x[i];
+      const double kinetic = 0.5 * m * dot(v, v);
+      const double stored =
+          strain ? (double)all.volume0[i] * strainEnergyDensity(objects[all.object[i]].material, all.F[i]) : 0.0;
+      e.kinetic += kinetic;
+      e.strain += stored;
+      e.potential -= m * dot(settings.gravity, x);
+      e.mass += m;
+      const double specific = (kinetic + stored) / m;
+      if (!(specific <= hottest)) {  // a NaN is the hottest of all
+        hottest = specific;
+        e.hottest = (uint32_t)i;
+      }
+    }
+    return e;
+  }
+
+  /// The energy account of SceneSettings::energyCheck, restarted when objects change.
+  struct EnergyAccount {
+    bool started = false;
+    double potentialStart = 0, positiveWork = 0, mostReleased = 0;
+    EnergyBalance balance;
+  } account;
+
+  void startEnergyAccount() {
+    HostParticles all;
+    backend->download(all);
+    const EnergySums e = measureEnergy(all);
+    account = EnergyAccount{};
+    account.started = true;
+    account.potentialStart = e.potential;
+    account.balance.start = e.kinetic + e.strain;
+  }
+
+  /// Books the advance just taken (shapes' work from their impulses and the mean of their
+  /// velocities before and after it: exact for a body that only the material pushes) and
+  /// throws SimulationDiverged when the energy grew beyond the check's tolerance.
+  EnergyBalance checkEnergy(const std::vector<ShapeState>& before) {
+    EnergyAccount& a = account;
+    for (size_t i = 0; i < shapes.size() && i < before.size(); ++i) {
+      if (!shapes[i].alive) continue;
+      const ShapeState& now = shapes[i].state;
+      const ShapeImpulse& J = shapes[i].lastImpulse;  // what the material gave the shape
+      const double work = -0.5 * (dot(J.linear, before[i].linearVelocity + now.linearVelocity) +
+                                  dot(J.angular, before[i].angularVelocity + now.angularVelocity));
+      a.balance.work += work;
+      a.positiveWork += std::max(work, 0.0);
+    }
+    HostParticles all;
+    backend->download(all);
+    const EnergySums e = measureEnergy(all);
+    const EnergyCheck& check = settings.energyCheck;
+    EnergyBalance& b = a.balance;
+    b.kinetic = e.kinetic;
+    b.strain = e.strain;
+    b.released = a.potentialStart - e.potential;
+    a.mostReleased = std::max(a.mostReleased, b.released);
+    b.supplied = b.start + a.positiveWork + a.mostReleased + 0.5 * e.mass * check.noiseSpeed * check.noiseSpeed;
+    if (!(b.excess() <= check.tolerance * b.supplied)) {
+      std::ostringstream s;
+      s << "energy grew without a source: the particles hold " << b.kinetic + b.strain << " J (kinetic "
+        << b.kinetic << ", strain " << b.strain << ") against " << b.start << " J at the start, "
+        << b.work << " J of shape work and " << b.released << " J released by gravity: an excess of "
+        << b.excess() << " J, above SceneSettings.energyCheck.tolerance = " << check.tolerance << " times the "
+        << b.supplied << " J supplied. The most energetic per unit mass, "
+        << describeParticle(all, e.hottest);
+      throw SimulationDiverged(s.str());
+    }
+    return b;
   }
 
   ShapeRecord& shape(ShapeId id, const char* call) {
@@ -431,9 +529,15 @@ class SceneImpl {
     validate::positive("Scene::advance dt", dt);
     const int n = substepCount(dt);
     uploadShapes();
-    pending = worker.submit([this, dt, n] {
+    const bool energy = settings.energyCheck.enabled;
+    std::vector<ShapeState> before;
+    if (energy)
+      for (const ShapeRecord& r : shapes) before.push_back(r.state);
+    pending = worker.submit([this, dt, n, energy, before = std::move(before)] {
+      if (energy && !account.started) startEnergyAccount();
       StepReport r = run(dt, n);
       downloadShapes();
+      if (energy) r.energy = checkEnergy(before);
       return r;
     });
   }
@@ -487,6 +591,10 @@ ShapeImpulse Scene::shapeImpulse(ShapeId id) const {
 StepReport Scene::step(float dt) {
   advance(dt);
   return fetchResults();
+}
+float Scene::maxSubstep() {
+  impl_->requireIdle("maxSubstep");
+  return impl_->maxSubstep();
 }
 double Scene::time() const { return impl_->time; }
 Backend Scene::backend() const { return impl_->resolved; }

@@ -31,7 +31,8 @@ class BackendUnavailable : public Error {
   using Error::Error;
 };
 
-/// A step produced a non-finite state or lost particles; names the object and particle.
+/// A step produced a non-finite state, lost particles or (with SceneSettings::energyCheck)
+/// gained energy from nowhere; names the object and particle.
 class SimulationDiverged : public Error {
  public:
   using Error::Error;

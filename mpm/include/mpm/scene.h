@@ -27,11 +27,25 @@ struct StageTimings {
   long long substeps = 0; ///< substeps these times cover
 };
 
+/// The particles' energy account since the start (or since particle objects last changed),
+/// kept when SceneSettings::energyCheck is enabled (see there for what is measured) [J].
+struct EnergyBalance {
+  double kinetic = 0;   ///< sum 1/2 m v^2 now
+  double strain = 0;    ///< sum V0 W(F) now (0 where the solver's forces do not come from F)
+  double released = 0;  ///< potential energy gravity has released: -sum m g . (x - x_start)
+  double start = 0;     ///< kinetic + strain at the start
+  double work = 0;      ///< work of the shapes on the material (their impulses times velocities)
+  double supplied = 0;  ///< start + positive work + largest release + noise floor
+  /// Energy not accounted for by the start, the work and gravity; > 0 is energy growth.
+  double excess() const { return kinetic + strain - start - released - work; }
+};
+
 /// What the last advance() did.
 struct StepReport {
   int substeps = 0;        ///< substeps taken
   float substepDt = 0;     ///< length of each [s]
   size_t activeBlocks = 0; ///< grid blocks (4^3 nodes each) touched in the last substep
+  EnergyBalance energy;    ///< with SceneSettings::energyCheck enabled, else zeros
 };
 
 /// Per-object summary read back from the solver (double precision sums).
@@ -84,6 +98,12 @@ class Scene {
   StepReport fetchResults();
   /// advance(dt) followed by fetchResults().
   StepReport step(float dt);
+
+  /// Longest substep the substep policy allows now [s]: cflNumber dx / (c_p + the fastest
+  /// particle or shape), and with MTLED no more than timeStepSafety times its critical
+  /// step (eq. 37); infinity when nothing bounds it. advance(dt) takes ceil(dt / this)
+  /// substeps unless fixedSubsteps is set. Not during a step.
+  float maxSubstep();
 
   /// Simulated time since creation [s].
   double time() const;

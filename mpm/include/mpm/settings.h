@@ -52,7 +52,8 @@ struct MtledSettings {
   float integrationCellsPerSpacing = 1.26f;
   /// Substep = timeStepSafety * the critical step of eq. 37, in (0, 1]. Eq. 37 is not a
   /// bound here: the seed 004 cylinder (node spacing 0.01 m) ran at 0.6 of it and diverged
-  /// at 0.9.
+  /// at 0.9; compressed ten times faster it is stable to 0.625 and fails at 0.656
+  /// (bench_stability; seed 004 found 1.34 on its own cylinder).
   float timeStepSafety = 0.5f;
 };
 
@@ -94,6 +95,30 @@ struct SubstepPolicy {
   int fixedSubsteps = 0;
 };
 
+/// Opt-in blow-up detection by energy. The checks for non-finite states and particles
+/// leaving the grid always run; this one costs a read-back of the particles per advance
+/// (one pass over them, as summary() does; measured 0.7-2 ms at 8k corotated particles on a
+/// busy 2-core VM, 15-57 % of one substep), so scenes that leave it off do not pay.
+/// Energy is kinetic + gravity's potential (relative to the start) + strain energy W(F)
+/// where the solver's forces come from F and E (MLS-MPM, standard MPM; not PB-MPM, whose
+/// stiffness is its iterations', nor MTLED, whose strain lives at integration points):
+/// a lower bound of the true energy, so the check never blames a solver for energy it
+/// does not measure. An advance fails with SimulationDiverged when the energy exceeds its
+/// start plus the work the shapes did on the material by more than `tolerance` times the
+/// energy supplied so far (initial kinetic + strain energy, the shapes' positive work, the
+/// largest potential energy gravity has released, and a noise floor).
+struct EnergyCheck {
+  bool enabled = false;
+  /// Allowed excess as a share of the energy supplied, > 0. Explicit blow-ups grow the
+  /// energy geometrically (many times the supply within a few steps); the stable runs of
+  /// bench_stability stayed at or below 0.017, but for the largest stable step of
+  /// MLS-MPM's sweep, at the edge of stability (0.27; bench/results/stability.md).
+  float tolerance = 0.5f;
+  /// Noise floor: energies below 1/2 M noiseSpeed^2 (M the scene's particle mass) are not
+  /// judged, so a scene at rest does not fail on rounding [m/s], >= 0.
+  float noiseSpeed = 1e-3f;
+};
+
 /// Everything a Scene needs at creation.
 struct SceneSettings {
   DomainSettings domain;
@@ -107,6 +132,7 @@ struct SceneSettings {
   /// policy its substep follows particle and shape speed only. MTLED also takes no more
   /// than its own stable step (MtledSettings::timeStepSafety).
   SubstepPolicy substeps;
+  EnergyCheck energyCheck;  ///< off by default
   Backend backend = Backend::Auto;
   int cpuThreads = 0;  ///< CPU backend worker threads; 0 = all hardware threads
 };

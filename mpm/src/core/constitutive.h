@@ -53,6 +53,19 @@ MPM_HD Mat3f kirchhoffStress(const MaterialParams& mat, const Mat3f& F) {
   }
 }
 
+/// Strain energy per unit rest volume [J/m^3] of the law whose stress kirchhoffStress
+/// returns: fixed corotated mu |F - R|^2 + lambda/2 (J - 1)^2, decoupled Neo-Hookean
+/// mu/2 (J^-2/3 tr B - 3) + K/2 (J - 1)^2.
+MPM_HD float strainEnergyDensity(const MaterialParams& mat, const Mat3f& F) {
+  const float J = determinant(F);
+  if (mat.model == kNeoHookeanDecoupled) {
+    const float trB = trace(F * transpose(F));
+    return 0.5f * mat.mu * (trB / cbrtf(J * J) - 3.f) + 0.5f * mat.bulk * (J - 1.f) * (J - 1.f);
+  }
+  const Mat3f D = F - polarRotation(F);
+  return mat.mu * trace(D * transpose(D)) + 0.5f * mat.lambda * (J - 1.f) * (J - 1.f);
+}
+
 /// Speed of the fastest elastic (P) wave, sqrt((lambda + 2 mu) / rho) [m/s], small strain.
 inline float pWaveSpeed(const MaterialParams& mat) {
   return std::sqrt((mat.lambda + 2.f * mat.mu) / mat.density);

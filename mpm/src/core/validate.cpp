@@ -67,6 +67,10 @@ void sceneSettings(const SceneSettings& s) {
     throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
                           "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");
   atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
+  positive("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance);
+  finite("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed);
+  if (s.energyCheck.noiseSpeed < 0.f)
+    throw InvalidArgument("SceneSettings.energyCheck.noiseSpeed", show(s.energyCheck.noiseSpeed), "must be >= 0");
   atLeast("SceneSettings.cpuThreads", s.cpuThreads, 0);
   const int solver = static_cast<int>(s.solver);
   if (solver < 0 || solver > static_cast<int>(SolverType::Mtled))
