@@ -46,7 +46,7 @@ struct PbMpm {
       const Mat3f I = Mat3f::identity();
       const Mat3f F = P.F[p], C = P.C[p];
       const Mat3f Fstar = (I + dt * C) * F;
-      const Mat3f R = polarRotation(Fstar);
+      const Mat3f R = fastPolarRotation(Fstar);
       const float J = determinant(Fstar);
       const Mat3f isochoric = J > 0.f ? (1.f / cbrtf(J)) * Fstar : R;
       const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
