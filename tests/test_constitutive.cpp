@@ -65,6 +65,22 @@ TEST(PolarDecomposition, MatchesEigenSvdForRandomAndInvertedF) {
   }
 }
 
+TEST(PolarDecomposition, FastPathMatchesJacobiPath) {
+  // fastPolarRotation (Newton where det F > 0, else the Jacobi path) gives polarRotation's R
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> s(0.2, 3.0);
+  for (int trial = 0; trial < 1000; ++trial) {
+    const Eigen::Matrix3d U = randomRotation(rng), V = randomRotation(rng);
+    Eigen::Vector3d sig(s(rng), s(rng), s(rng));
+    if (trial % 4 == 0) sig(trial % 3) *= -1;         // inverted
+    if (trial % 7 == 0) sig((trial + 1) % 3) *= 1e-3;  // nearly flat
+    const Mat3f F = fromEigen(U * sig.asDiagonal() * V.transpose());
+    const Eigen::Matrix3d fast = toEigen(fastPolarRotation(F)), jacobi = toEigen(polarRotation(F));
+    EXPECT_NEAR(fast.determinant(), 1.0, 1e-4) << "trial " << trial;
+    EXPECT_LT((fast - jacobi).norm(), 1e-4) << "trial " << trial;
+  }
+}
+
 TEST(FixedCorotated, PureRotationIsStressFree) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 50; ++trial) {

@@ -13,6 +13,7 @@
 // solvers/ and grid/, called with either kind of node accessor.
 #include <chrono>
 #include <cstring>
+#include <type_traits>
 #include <utility>
 
 #include "backend/exec_array.h"
@@ -45,6 +46,15 @@ struct Gather {
 
 }  // namespace kernels
 
+/// Exec::kPermuteInPlace: the backend reorders a field in place (CpuExec), so sorting
+/// needs no scratch copy of the widest field; otherwise (GPU) each field is gathered into
+/// a scratch buffer and copied back.
+template <class Exec, class = void>
+struct PermutesInPlace : std::false_type {};
+template <class Exec>
+struct PermutesInPlace<Exec, std::void_t<decltype(Exec::kPermuteInPlace)>>
+    : std::bool_constant<Exec::kPermuteInPlace> {};
+
 template <class Exec, class Method>
 class ParticleGridSystem final : public SimBackend {
  public:
@@ -55,6 +65,7 @@ class ParticleGridSystem final : public SimBackend {
     MPM_PARTICLE_FIELDS(MPM_BIND)
 #undef MPM_BIND
     scratch_.bind(&exec_);
+    marks_.bind(&exec_);
     materials_.bind(&exec_);
   }
 
@@ -99,6 +110,15 @@ class ParticleGridSystem final : public SimBackend {
     if (count_ == 0) return;
     auto t0 = Clock::now();
     exec_.bin(view(), bins_);
+    if constexpr (PermutesInPlace<Exec>::value) {
+      // one bit per particle marks the places already filled
+      marks_.resizeDiscard((count_ + 63) / 64);
+#define MPM_PERMUTE(type, name) exec_.permuteInPlace(name##_.data(), bins_.order(), count_, marks_.data());
+      MPM_PARTICLE_FIELDS(MPM_PERMUTE)
+#undef MPM_PERMUTE
+      timings.sort += seconds(t0);
+      return;
+    }
     // one scratch buffer of the widest field serves every field in turn
     scratch_.resizeDiscard(count_ * sizeof(Mat3f));
 #define MPM_PERMUTE(type, name)                                                          \
@@ -218,7 +238,7 @@ class ParticleGridSystem final : public SimBackend {
   size_t particleCount() const override { return count_; }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = scratch_.bytes() + materials_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
+    size_t b = scratch_.bytes() + marks_.bytes() + materials_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
 #define MPM_BYTES(type, name) b += name##_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -249,6 +269,7 @@ class ParticleGridSystem final : public SimBackend {
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER
   ExecArray<uint8_t, Exec> scratch_;
+  ExecArray<uint64_t, Exec> marks_;
   ExecArray<MaterialParams, Exec> materials_;
   ShapeSet<Exec> shapes_;
 };

@@ -21,7 +21,7 @@ enum : int { kFixedCorotated = 0, kNeoHookeanDecoupled = 1 };
 /// R is the rotation of the polar decomposition with det R = +1, so the law stays
 /// defined for inverted elements.
 MPM_HD Mat3f kirchhoffFixedCorotated(const Mat3f& F, float mu, float lambda) {
-  const Mat3f R = polarRotation(F);
+  const Mat3f R = fastPolarRotation(F);
   const float J = determinant(F);
   Mat3f tau = (2.f * mu) * ((F - R) * transpose(F));
   const float vol = lambda * (J - 1.f) * J;

@@ -15,14 +15,16 @@ struct MlsMpm {
 
   template <bool kCentroid>
   struct P2G {
+    static constexpr bool kCentroidSums = kCentroid;
+    static constexpr bool kStressImpulse = false;
     ParticleView P;
     GridGeometry geo;
     const MaterialParams* materials;
     float dt;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-      if (!geo.stencilInside(P.x[p])) return;  // a stray: reported by G2P, never written
       const QuadraticStencil st(geo, P.x[p]);
+      if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
       const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * apicInverseInertia(geo)) * tau;
@@ -31,6 +33,7 @@ struct MlsMpm {
   };
 
   struct G2P {
+    static constexpr bool kOldVelocity = false;
     ParticleView P;
     GridGeometry geo;
     float dt;
@@ -38,8 +41,8 @@ struct MlsMpm {
     int nParts;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      if (!geo.stencilInside(P.x[p])) return strayParticle(p, P);
       const QuadraticStencil st(geo, P.x[p]);
+      if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
       apicGather(st, geo, nodes, v, C);

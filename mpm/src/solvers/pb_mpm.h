@@ -32,6 +32,8 @@ struct PbMpm {
   /// The constraint projection (eqs. 13-16), then APIC P2G of the projected C.
   template <bool kCentroid>
   struct P2G {
+    static constexpr bool kCentroidSums = kCentroid;
+    static constexpr bool kStressImpulse = false;
     ParticleView P;
     GridGeometry geo;
     float dt;
@@ -39,22 +41,23 @@ struct PbMpm {
     float rigidity;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-      if (!geo.stencilInside(P.x[p])) return;
+      const QuadraticStencil st(geo, P.x[p]);
+      if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const Mat3f I = Mat3f::identity();
       const Mat3f F = P.F[p], C = P.C[p];
       const Mat3f Fstar = (I + dt * C) * F;
-      const Mat3f R = polarRotation(Fstar);
+      const Mat3f R = fastPolarRotation(Fstar);
       const float J = determinant(Fstar);
       const Mat3f isochoric = J > 0.f ? (1.f / cbrtf(J)) * Fstar : R;
       const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
       const Mat3f Cc = C + relaxation * ((1.f / dt) * (Fc * inverse(F) - I) - C);
-      const QuadraticStencil st(geo, P.x[p]);
       const float m = P.mass[p];
       apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], nodes);
     }
   };
 
   struct G2P {
+    static constexpr bool kOldVelocity = false;
     ParticleView P;
     GridGeometry geo;
     float dt;
@@ -63,8 +66,8 @@ struct PbMpm {
     int nParts;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      if (!geo.stencilInside(P.x[p])) return strayParticle(p, P);
       const QuadraticStencil st(geo, P.x[p]);
+      if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
       apicGather(st, geo, nodes, v, C);

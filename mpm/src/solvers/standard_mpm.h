@@ -19,25 +19,43 @@ struct StandardMpm {
 
   template <bool kCentroid>
   struct P2G {
+    static constexpr bool kCentroidSums = kCentroid;
+    static constexpr bool kStressImpulse = true;
     ParticleView P;
     GridGeometry geo;
     const MaterialParams* materials;
     float dt;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-      if (!geo.stencilInside(P.x[p])) return;
-      const QuadraticStencil st(geo, P.x[p]);
+      const Vec3f xp = P.x[p];
+      const QuadraticStencil st(geo, xp);
+      if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
-      const Vec3f mv = m * P.v[p], xp = P.x[p];
-      // dt f_i = -dt V0 tau grad w_i
+      const Vec3f mv = m * P.v[p];
+      // dt f_i = -dt V0 tau grad w_i, with grad w_i = (dw0 w1 w2, w0 dw1 w2, w0 w1 dw2):
+      // per node w2 (dw0 w1 T0 + w0 dw1 T1) + dw2 (w0 w1 T2), T the impulse's columns
       const Mat3f impulse = (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]);
-      forEachStencilGradient(st, geo.invDx, [&](int a, int b, int c, float wt, Vec3f grad) {
-        if constexpr (kCentroid)
-          nodes.add(a, b, c, wt * m, wt * mv, (wt * m) * xp);
-        else
-          nodes.add(a, b, c, wt * m, wt * mv);
-        nodes.addStressImpulse(a, b, c, impulse * grad);
-      });
+      const Float4 t0 = Float4::make(0.f, impulse.m[0][0], impulse.m[1][0], impulse.m[2][0]);
+      const Float4 t1 = Float4::make(0.f, impulse.m[0][1], impulse.m[1][1], impulse.m[2][1]);
+      const Float4 t2 = Float4::make(0.f, impulse.m[0][2], impulse.m[1][2], impulse.m[2][2]);
+      const Float4 q0 = Float4::make(m, mv.x, mv.y, mv.z);
+      const Float4 x4 = Float4::make(0.f, xp.x, xp.y, xp.z);
+      float dw[3][3];
+      st.gradients(geo.invDx, dw);
+      const float(&w)[3][3] = st.w;
+      const int* base = st.base;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          const float wij = w[0][i] * w[1][j];
+          const Float4 e = (dw[0][i] * w[1][j]) * t0 + (w[0][i] * dw[1][j]) * t1;
+          const Float4 f = wij * t2;
+          for (int k = 0; k < 3; ++k) {
+            const float wt = wij * w[2][k];
+            nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * q0);
+            if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, (wt * m) * x4);
+            nodes.addStressImpulse(base[0] + i, base[1] + j, base[2] + k, w[2][k] * e + dw[2][k] * f);
+          }
+        }
     }
   };
 
@@ -57,6 +75,7 @@ struct StandardMpm {
   };
 
   struct G2P {
+    static constexpr bool kOldVelocity = true;
     ParticleView P;
     GridGeometry geo;
     float dt;
@@ -65,16 +84,39 @@ struct StandardMpm {
     int nParts;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      if (!geo.stencilInside(P.x[p])) return strayParticle(p, P);
       const QuadraticStencil st(geo, P.x[p]);
-      Vec3f vPic{0.f, 0.f, 0.f}, dv{0.f, 0.f, 0.f};
-      Mat3f L{};
-      forEachStencilGradient(st, geo.invDx, [&](int a, int b, int c, float wt, Vec3f grad) {
-        const Vec3f vNew = nodes.velocity(a, b, c);
-        vPic += wt * vNew;
-        dv += wt * (vNew - nodes.oldVelocity(a, b, c));
-        L = L + outer(vNew, grad);
-      });
+      if (!st.inside(geo)) return strayParticle(p, P);
+      float dw[3][3];
+      st.gradients(geo.invDx, dw);
+      const float(&w)[3][3] = st.w;
+      const int* base = st.base;
+      // separable sums: vPic = sum w v, vOld = sum w v_old, L = sum v grad w^T by columns
+      Float4 vp = Float4::zero(), vo = Float4::zero(), l0 = Float4::zero(), l1 = Float4::zero(),
+             l2 = Float4::zero();
+      for (int i = 0; i < 3; ++i) {
+        Float4 S = Float4::zero(), D = Float4::zero(), T = Float4::zero(), O = Float4::zero();
+        for (int j = 0; j < 3; ++j) {
+          Float4 s = Float4::zero(), t = Float4::zero(), o = Float4::zero();
+          for (int k = 0; k < 3; ++k) {
+            const Float4 vn = nodes.velocity4(base[0] + i, base[1] + j, base[2] + k);
+            s += w[2][k] * vn;
+            t += dw[2][k] * vn;
+            o += w[2][k] * nodes.oldVelocity4(base[0] + i, base[1] + j, base[2] + k);
+          }
+          S += w[1][j] * s;
+          D += dw[1][j] * s;
+          T += w[1][j] * t;
+          O += w[1][j] * o;
+        }
+        vp += w[0][i] * S;
+        l0 += dw[0][i] * S;
+        l1 += w[0][i] * D;
+        l2 += w[0][i] * T;
+        vo += w[0][i] * O;
+      }
+      const Vec3f vPic = vp.xyz();
+      const Vec3f dv = (vp - vo).xyz();
+      const Mat3f L = Mat3f::fromColumns(l0.xyz(), l1.xyz(), l2.xyz());
       P.x[p] += dt * vPic;
       P.v[p] = flip * (P.v[p] + dv) + (1.f - flip) * vPic;
       P.F[p] = (Mat3f::identity() + dt * L) * P.F[p];

@@ -20,6 +20,8 @@ struct QuadraticStencil {
     geo.stencilBase(x, base, fx);
     for (int a = 0; a < 3; ++a) quadraticWeights(fx[a], w[a]);
   }
+  /// The whole stencil lies on grid nodes (GridGeometry::stencilInside of the same x).
+  MPM_HD bool inside(const GridGeometry& geo) const { return geo.baseInside(base); }
   /// d w / d x along axis a for the three nodes [1/m] (standard MPM's force and L).
   MPM_HD void gradients(float invDx, float dw[3][3]) const {
     for (int a = 0; a < 3; ++a) {
@@ -30,22 +32,12 @@ struct QuadraticStencil {
   }
 };
 
-/// Calls f(i, j, k, w, grad w) for the 27 nodes of a stencil: node (base + (i, j, k)), its
-/// weight and its weight gradient [1/m] (the standard-MPM transfers need both).
-template <class F>
-MPM_HD void forEachStencilGradient(const QuadraticStencil& st, float invDx, F f) {
-  float dw[3][3];
-  st.gradients(invDx, dw);
-  const float(&w)[3][3] = st.w;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      for (int k = 0; k < 3; ++k)
-        f(st.base[0] + i, st.base[1] + j, st.base[2] + k, w[0][i] * w[1][j] * w[2][k],
-          Vec3f{dw[0][i] * w[1][j] * w[2][k], w[0][i] * dw[1][j] * w[2][k], w[0][i] * w[1][j] * dw[2][k]});
-}
-
 /// 1 / M_p of the quadratic B-spline APIC/MLS transfers, 4 / dx^2 [1/m^2].
 MPM_HD float apicInverseInertia(const GridGeometry& geo) { return 4.f * geo.invDx * geo.invDx; }
+
+// The transfers below are separable: the 27 node terms of a stencil are products of
+// per-axis weights, so sums over the stencil are taken axis by axis (k innermost) and
+// node values move as Float4 {mass, x, y, z}, one short vector per node.
 
 /// APIC scatter of one particle: node momentum w (mv + A (x_i - x_p)) and mass w m.
 /// `affine` is A: m C for APIC and PB-MPM, m C - dt V0 M^-1 tau for MLS-MPM. `Nodes` is
@@ -56,20 +48,22 @@ MPM_HD void apicScatter(const QuadraticStencil& st, float dx, float m, Vec3f mv,
                         Nodes& nodes) {
   const int* base = st.base;
   const float(&w)[3][3] = st.w;
-  // momentum at node offset d: mv + A d, built incrementally along each axis
+  // {mass, momentum} at node offset d: {m, mv + A d}, built incrementally along each axis
   const Vec3f d0{-st.fx.x * dx, -st.fx.y * dx, -st.fx.z * dx};
   const Vec3f a0 = mv + affine * d0;
   const Vec3f ax = dx * affine.column(0), ay = dx * affine.column(1), az = dx * affine.column(2);
+  const Float4 q0 = Float4::make(m, a0.x, a0.y, a0.z);
+  const Float4 qx = Float4::make(0.f, ax.x, ax.y, ax.z), qy = Float4::make(0.f, ay.x, ay.y, ay.z),
+               qz = Float4::make(0.f, az.x, az.y, az.z);
+  const Float4 x4 = Float4::make(0.f, xp.x, xp.y, xp.z);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
-      const Vec3f aij = a0 + (float)i * ax + (float)j * ay;
+      const Float4 qij = q0 + (float)i * qx + (float)j * qy;
       const float wij = w[0][i] * w[1][j];
       for (int k = 0; k < 3; ++k) {
         const float wt = wij * w[2][k];
-        if constexpr (kCentroid)
-          nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * m, wt * (aij + (float)k * az), (wt * m) * xp);
-        else
-          nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * m, wt * (aij + (float)k * az));
+        nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * (qij + (float)k * qz));
+        if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, (wt * m) * x4);
       }
     }
 }
@@ -81,23 +75,30 @@ MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, cons
   const int* base = st.base;
   const float(&w)[3][3] = st.w;
   const float dx = geo.dx;
-  // B = sum w v (x_i - x_p)^T, accumulated as sum (w v) i^T dx minus (sum w v) fx^T dx
-  v = Vec3f{0.f, 0.f, 0.f};
-  Vec3f bi{0.f, 0.f, 0.f}, bj{0.f, 0.f, 0.f}, bk{0.f, 0.f, 0.f};
-  for (int i = 0; i < 3; ++i)
+  // B = sum w v (x_i - x_p)^T, accumulated as sum (w v) i^T dx minus (sum w v) fx^T dx;
+  // lane 0 of each sum carries the nodes' mass and is not used
+  Float4 sv = Float4::zero(), bi = Float4::zero(), bj = Float4::zero(), bk = Float4::zero();
+  for (int i = 0; i < 3; ++i) {
+    Float4 si = Float4::zero(), sj = Float4::zero(), sk = Float4::zero();
     for (int j = 0; j < 3; ++j) {
-      const float wij = w[0][i] * w[1][j];
-      for (int k = 0; k < 3; ++k) {
-        const Vec3f wv = (wij * w[2][k]) * nodes.velocity(base[0] + i, base[1] + j, base[2] + k);
-        v += wv;
-        bi += (float)i * wv;
-        bj += (float)j * wv;
-        bk += (float)k * wv;
-      }
+      const Float4 n0 = nodes.velocity4(base[0] + i, base[1] + j, base[2]);
+      const Float4 n1 = nodes.velocity4(base[0] + i, base[1] + j, base[2] + 1);
+      const Float4 n2 = nodes.velocity4(base[0] + i, base[1] + j, base[2] + 2);
+      const Float4 s = w[2][0] * n0 + w[2][1] * n1 + w[2][2] * n2;
+      const Float4 t = w[2][1] * n1 + (2.f * w[2][2]) * n2;
+      si += w[1][j] * s;
+      sj += ((float)j * w[1][j]) * s;
+      sk += w[1][j] * t;
     }
+    sv += w[0][i] * si;
+    bi += ((float)i * w[0][i]) * si;
+    bj += w[0][i] * sj;
+    bk += w[0][i] * sk;
+  }
+  v = sv.xyz();
   const Vec3f fx = st.fx;
   C = apicInverseInertia(geo) *
-      Mat3f::fromColumns(dx * (bi - fx.x * v), dx * (bj - fx.y * v), dx * (bk - fx.z * v));
+      Mat3f::fromColumns(dx * (bi.xyz() - fx.x * v), dx * (bj.xyz() - fx.y * v), dx * (bk.xyz() - fx.z * v));
 }
 
 /// The end of every solver's G2P: push the particle out of the shapes it ended inside,
@@ -151,28 +152,38 @@ void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, co
 template <class Add>
 struct GridNodes {
   GridView grid;
-  MPM_HD void add(int i, int j, int k, float m, Vec3f mv) const {
+  /// Adds {mass, momentum}.
+  MPM_HD void add(int i, int j, int k, const Float4& q) const {
     GridNode& n = grid.node(i, j, k);
-    Add::add(n.mass, m);
-    Add::add(n.mv.x, mv.x);
-    Add::add(n.mv.y, mv.y);
-    Add::add(n.mv.z, mv.z);
+    Add::add(n.mass, q[0]);
+    Add::add(n.mv.x, q[1]);
+    Add::add(n.mv.y, q[2]);
+    Add::add(n.mv.z, q[3]);
   }
-  MPM_HD void add(int i, int j, int k, float m, Vec3f mv, Vec3f mx) const {
-    add(i, j, k, m, mv);
+  /// Adds w m x_p (lanes 1-3).
+  MPM_HD void addCentroid(int i, int j, int k, const Float4& mx) const {
     GridNode& n = grid.node(i, j, k);
-    Add::add(n.mx.x, mx.x);
-    Add::add(n.mx.y, mx.y);
-    Add::add(n.mx.z, mx.z);
+    Add::add(n.mx.x, mx[1]);
+    Add::add(n.mx.y, mx[2]);
+    Add::add(n.mx.z, mx[3]);
   }
-  MPM_HD void addStressImpulse(int i, int j, int k, Vec3f dmv) const {
+  /// Adds the stress impulse dt f (lanes 1-3).
+  MPM_HD void addStressImpulse(int i, int j, int k, const Float4& dmv) const {
     GridNode& n = grid.node(i, j, k);
-    Add::add(n.dmv.x, dmv.x);
-    Add::add(n.dmv.y, dmv.y);
-    Add::add(n.dmv.z, dmv.z);
+    Add::add(n.dmv.x, dmv[1]);
+    Add::add(n.dmv.y, dmv[2]);
+    Add::add(n.dmv.z, dmv[3]);
   }
-  MPM_HD Vec3f velocity(int i, int j, int k) const { return grid.node(i, j, k).mv; }
-  MPM_HD Vec3f oldVelocity(int i, int j, int k) const { return grid.node(i, j, k).dmv; }
+  /// {mass, velocity} after the grid update.
+  MPM_HD Float4 velocity4(int i, int j, int k) const {
+    const GridNode& n = grid.node(i, j, k);
+    return Float4::make(n.mass, n.mv.x, n.mv.y, n.mv.z);
+  }
+  /// {0, velocity before the force} (standard MPM).
+  MPM_HD Float4 oldVelocity4(int i, int j, int k) const {
+    const GridNode& n = grid.node(i, j, k);
+    return Float4::make(0.f, n.dmv.x, n.dmv.y, n.dmv.z);
+  }
 };
 
 }  // namespace mpm

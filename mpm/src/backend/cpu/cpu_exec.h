@@ -16,40 +16,60 @@
 #include <cstdlib>
 #include <cstring>
 #include <new>
+#include <type_traits>
 #include <vector>
 
 #include "backend/sim_backend.h"
 
 namespace mpm {
 
-/// The 6^3 nodes a block's particles reach, as a dense array.
+/// Which tile fields a transfer kernel uses, from its optional flags (all, if it has none):
+/// kCentroidSums (P2G adds w m x_p), kStressImpulse (P2G adds dt f), kOldVelocity (G2P
+/// reads the velocity before the force).
+template <class F, class = void>
+struct UsesCentroid : std::true_type {};
+template <class F>
+struct UsesCentroid<F, std::void_t<decltype(F::kCentroidSums)>> : std::bool_constant<F::kCentroidSums> {};
+template <class F, class = void>
+struct UsesImpulse : std::true_type {};
+template <class F>
+struct UsesImpulse<F, std::void_t<decltype(F::kStressImpulse)>> : std::bool_constant<F::kStressImpulse> {};
+template <class F, class = void>
+struct UsesOldVelocity : std::true_type {};
+template <class F>
+struct UsesOldVelocity<F, std::void_t<decltype(F::kOldVelocity)>> : std::bool_constant<F::kOldVelocity> {};
+
+/// The 6^3 nodes a block's particles reach, as dense arrays of Float4 (one vector load,
+/// add and store per node and field).
 struct BlockTile {
   static constexpr int kEdge = kBlockSize + 2;
   static constexpr int kNodes = kEdge * kEdge * kEdge;
   int origin[3];
-  GridNode nodes[kNodes];
+  Float4 mv[kNodes];   ///< {mass, momentum}; {mass, velocity} in G2P
+  Float4 mx[kNodes];   ///< {0, sum w m x_p}
+  Float4 dmv[kNodes];  ///< {0, stress impulse}; {0, velocity before the force} in G2P
 
   int index(int i, int j, int k) const {
     return ((i - origin[0]) * kEdge + (j - origin[1])) * kEdge + (k - origin[2]);
   }
-  void add(int i, int j, int k, float m, Vec3f mv) {
-    GridNode& n = nodes[index(i, j, k)];
-    n.mass += m;
-    n.mv += mv;
-  }
-  void add(int i, int j, int k, float m, Vec3f mv, Vec3f mx) {
-    GridNode& n = nodes[index(i, j, k)];
-    n.mass += m;
-    n.mv += mv;
-    n.mx += mx;
-  }
-  void addStressImpulse(int i, int j, int k, Vec3f dmv) { nodes[index(i, j, k)].dmv += dmv; }
-  Vec3f velocity(int i, int j, int k) const { return nodes[index(i, j, k)].mv; }
-  Vec3f oldVelocity(int i, int j, int k) const { return nodes[index(i, j, k)].dmv; }
+  void add(int i, int j, int k, const Float4& q) { mv[index(i, j, k)] += q; }
+  void addCentroid(int i, int j, int k, const Float4& q) { mx[index(i, j, k)] += q; }
+  void addStressImpulse(int i, int j, int k, const Float4& q) { dmv[index(i, j, k)] += q; }
+  Float4 velocity4(int i, int j, int k) const { return mv[index(i, j, k)]; }
+  Float4 oldVelocity4(int i, int j, int k) const { return dmv[index(i, j, k)]; }
 
   void setBlock(const GridGeometry& geo, uint32_t block) {
     geo.blockCoords(block, origin[0], origin[1], origin[2]);
     for (int& o : origin) o <<= kBlockBits;
+  }
+  template <bool kMx, bool kDmv>
+  void clear() {
+    const Float4 zero = Float4::zero();
+    for (int n = 0; n < kNodes; ++n) {
+      mv[n] = zero;
+      if (kMx) mx[n] = zero;
+      if (kDmv) dmv[n] = zero;
+    }
   }
   /// Calls f(tileNode, gridNode) for every tile node that exists in the grid.
   template <class F>
@@ -59,8 +79,26 @@ struct BlockTile {
         for (int k = 0; k < kEdge; ++k) {
           const int gi = origin[0] + i, gj = origin[1] + j, gk = origin[2] + k;
           if (gi > grid.geo.cells[0] || gj > grid.geo.cells[1] || gk > grid.geo.cells[2]) continue;
-          f(nodes[(i * kEdge + j) * kEdge + k], grid.node(gi, gj, gk));
+          f((i * kEdge + j) * kEdge + k, grid.node(gi, gj, gk));
         }
+  }
+  /// Adds the tile to the grid.
+  template <bool kMx, bool kDmv>
+  void flush(const GridView& grid) {
+    forEachGridNode(grid, [this](int t, GridNode& g) {
+      g.mass += mv[t][0];
+      g.mv += mv[t].xyz();
+      if (kMx) g.mx += mx[t].xyz();
+      if (kDmv) g.dmv += dmv[t].xyz();
+    });
+  }
+  /// Copies the grid's {mass, velocity} (and old velocity) into the tile.
+  template <bool kDmv>
+  void load(const GridView& grid) {
+    forEachGridNode(grid, [this](int t, const GridNode& g) {
+      mv[t] = Float4::make(g.mass, g.mv.x, g.mv.y, g.mv.z);
+      if (kDmv) dmv[t] = Float4::make(0.f, g.dmv.x, g.dmv.y, g.dmv.z);
+    });
   }
 };
 
@@ -86,6 +124,33 @@ struct CpuExec {
   void copyToDevice(void* dst, const void* src, size_t bytes) { if (bytes) std::memcpy(dst, src, bytes); }
   void copyToHost(void* dst, const void* src, size_t bytes) const { if (bytes) std::memcpy(dst, src, bytes); }
   void copyOnDevice(void* dst, const void* src, size_t bytes) { if (bytes) std::memcpy(dst, src, bytes); }
+
+  /// Sorting reorders each particle field in place (no scratch copy of a field).
+  static constexpr bool kPermuteInPlace = true;
+  /// data[i] <- data[order[i]] for a permutation `order`, in place: follows each cycle of
+  /// the permutation once; `marks` (one bit per element, contents ignored) records the
+  /// places already filled.
+  template <class T>
+  void permuteInPlace(T* data, const uint32_t* order, size_t n, uint64_t* marks) {
+    std::memset(marks, 0, ((n + 63) / 64) * sizeof(uint64_t));
+    for (size_t s = 0; s < n; ++s) {
+      if (marks[s >> 6] & (1ull << (s & 63))) continue;
+      marks[s >> 6] |= 1ull << (s & 63);
+      if (order[s] == s) continue;
+      const T first = data[s];
+      size_t j = s;
+      for (;;) {
+        const size_t k = order[j];
+        if (k == s) {
+          data[j] = first;
+          break;
+        }
+        data[j] = data[k];
+        marks[k >> 6] |= 1ull << (k & 63);
+        j = k;
+      }
+    }
+  }
 
   template <class F>
   void forEach(size_t n, const F& f) {
@@ -152,20 +217,16 @@ struct CpuExec {
       // colours apart
 #pragma omp parallel num_threads(threads) if ((long long)occupied_.size() >= kMinParallelBlocks)
       {
+        constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
         BlockTile tile;
         for (const auto& blocks : colour_) {
 #pragma omp for schedule(dynamic, 1)
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
-            for (GridNode& n : tile.nodes) n = GridNode{};
+            tile.clear<kMx, kDmv>();
             for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
-            tile.forEachGridNode(grid, [](const GridNode& t, GridNode& g) {
-              g.mass += t.mass;
-              g.mv += t.mv;
-              g.mx += t.mx;
-              g.dmv += t.dmv;
-            });
+            tile.flush<kMx, kDmv>(grid);
           }
         }
       }
@@ -184,7 +245,7 @@ struct CpuExec {
 #pragma omp for schedule(dynamic, 4)
         for (long long j = 0; j < (long long)occupied_.size(); ++j) {
           tile.setBlock(geo_, occupied_[j]);
-          tile.forEachGridNode(grid, [](GridNode& t, const GridNode& g) { t = g; });
+          tile.load<UsesOldVelocity<F>::value>(grid);
           for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) {
             const StepCheck c = f(order_[r], tile);
             maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
