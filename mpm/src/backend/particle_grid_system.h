@@ -56,11 +56,14 @@ struct PermutesInPlace<Exec, std::void_t<decltype(Exec::kPermuteInPlace)>>
     : std::bool_constant<Exec::kPermuteInPlace> {};
 
 template <class Exec, class Method>
-class ParticleGridSystem final : public SimBackend {
+class ParticleGridSystem final : public ShapeBackend<Exec> {
+  using ShapeBackend<Exec>::shapes_;
+  using ShapeBackend<Exec>::timings;
+
  public:
   template <class... Args>
   ParticleGridSystem(const GridGeometry& geo, Args&&... execArgs)
-      : exec_(std::forward<Args>(execArgs)...), geo_(geo), bins_(exec_, geo), shapes_(exec_) {
+      : ShapeBackend<Exec>(exec_), exec_(std::forward<Args>(execArgs)...), geo_(geo), bins_(exec_, geo) {
 #define MPM_BIND(type, name) name##_.bind(&exec_);
     MPM_PARTICLE_FIELDS(MPM_BIND)
 #undef MPM_BIND
@@ -217,15 +220,6 @@ class ParticleGridSystem final : public SimBackend {
 
   StepCheck takeCheck() override { return exec_.takeCheck(); }
 
-  void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
-    shapes_.set(bodies, parts);
-  }
-  const float* meshValues(const std::vector<float>& values) override { return shapes_.meshValues(values); }
-  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
-    shapes_.releaseMeshesExcept(live);
-  }
-  void readBodies(std::vector<BodyView>& out) const override { shapes_.readBodies(out); }
-  std::vector<ContactSums> takeImpulses() override { return shapes_.takeImpulses(); }
 
   void download(HostParticles& out) const override {
 #define MPM_DOWNLOAD(type, name) \
@@ -271,7 +265,6 @@ class ParticleGridSystem final : public SimBackend {
   ExecArray<uint8_t, Exec> scratch_;
   ExecArray<uint64_t, Exec> marks_;
   ExecArray<MaterialParams, Exec> materials_;
-  ShapeSet<Exec> shapes_;
 };
 
 }  // namespace mpm

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "backend/exec_array.h"
+#include "backend/sim_backend.h"
 #include "shapes/shape_kernels.h"
 
 namespace mpm {
@@ -149,6 +150,27 @@ class ShapeSet {
   ExecArray<ContactSums, Exec> stepSums_, record_;
   bool anyDynamic_ = false;
   std::map<const std::vector<float>*, std::unique_ptr<ExecArray<float, Exec>>> meshes_;
+};
+
+/// A backend that holds rigid shapes: the SimBackend shape calls, answered by its ShapeSet
+/// once for every solver.
+template <class Exec>
+class ShapeBackend : public SimBackend {
+ public:
+  void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
+    shapes_.set(bodies, parts);
+  }
+  const float* meshValues(const std::vector<float>& values) override { return shapes_.meshValues(values); }
+  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
+    shapes_.releaseMeshesExcept(live);
+  }
+  void readBodies(std::vector<BodyView>& out) const override { shapes_.readBodies(out); }
+  std::vector<ContactSums> takeImpulses() override { return shapes_.takeImpulses(); }
+
+ protected:
+  /// `exec` may still be unconstructed (a member of the derived backend): it is only bound.
+  explicit ShapeBackend(Exec& exec) : shapes_(exec) {}
+  ShapeSet<Exec> shapes_;
 };
 
 }  // namespace mpm

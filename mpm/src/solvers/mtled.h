@@ -173,11 +173,14 @@ struct MtledFollow {
 }  // namespace kernels
 
 template <class Exec>
-class MtledSystem final : public SimBackend {
+class MtledSystem final : public ShapeBackend<Exec> {
+  using ShapeBackend<Exec>::shapes_;
+  using ShapeBackend<Exec>::timings;
+
  public:
   template <class... Args>
   explicit MtledSystem(const MtledSettings& settings, Args&&... execArgs)
-      : exec_(std::forward<Args>(execArgs)...), settings_(settings), shapes_(exec_) {
+      : ShapeBackend<Exec>(exec_), exec_(std::forward<Args>(execArgs)...), settings_(settings) {
     for (auto* a : {&x_, &v_, &X_}) a->bind(&exec_);
     for (auto* a : {&carrier_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
     mass_.bind(&exec_);
@@ -311,15 +314,6 @@ class MtledSystem final : public SimBackend {
     return c;
   }
 
-  void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
-    shapes_.set(bodies, parts);
-  }
-  const float* meshValues(const std::vector<float>& values) override { return shapes_.meshValues(values); }
-  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
-    shapes_.releaseMeshesExcept(live);
-  }
-  void readBodies(std::vector<BodyView>& out) const override { shapes_.readBodies(out); }
-  std::vector<ContactSums> takeImpulses() override { return shapes_.takeImpulses(); }
 
   void download(HostParticles& out) const override {
     out = nodes_;
@@ -392,7 +386,6 @@ class MtledSystem final : public SimBackend {
 
   mutable Exec exec_;
   MtledSettings settings_;
-  ShapeSet<Exec> shapes_;
   // host side: the nodes as added (motion current only while dirty_), reference
   // positions, integration cells, materials; the model built from them
   HostParticles nodes_;
