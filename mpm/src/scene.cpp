@@ -371,10 +371,13 @@ class SceneImpl {
   };
 
   EnergySums measureEnergy(const HostParticles& all) const {
-    // W(F) is the stored energy only where F and E drive the forces (the grid's elastic
-    // CFL solvers); elsewhere kinetic + potential is a lower bound
+    // W(F) of the particles is the stored energy only where F and E drive the forces (the
+    // grid's elastic CFL solvers); MTLED holds it at its integration points; PB-MPM's is
+    // not measured, so there kinetic + potential is a lower bound
     const bool strain = solverTraits(settings.solver).elasticCfl;
     EnergySums e;
+    const double pointEnergy = backend->integrationPointEnergy(all);
+    if (std::isfinite(pointEnergy)) e.strain = pointEnergy;
     double hottest = -1;
     for (size_t i = 0; i < all.size(); ++i) {
       const double m = all.mass[i];

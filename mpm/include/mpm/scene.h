@@ -31,7 +31,7 @@ struct StageTimings {
 /// kept when SceneSettings::energyCheck is enabled (see there for what is measured) [J].
 struct EnergyBalance {
   double kinetic = 0;   ///< sum 1/2 m v^2 now
-  double strain = 0;    ///< sum V0 W(F) now (0 where the solver's forces do not come from F)
+  double strain = 0;    ///< stored elastic energy now: sum V0 W(F) of the particles (MTLED: of its integration points; PB-MPM: 0, not measured)
   double released = 0;  ///< potential energy gravity has released: -sum m g . (x - x_start)
   double start = 0;     ///< kinetic + strain at the start
   double work = 0;      ///< work of the shapes on the material (their impulses times velocities)

@@ -71,6 +71,12 @@ class SimBackend {
   virtual std::vector<ContactSums> takeImpulses() = 0;
   /// Copies the whole particle state to the host.
   virtual void download(HostParticles& out) const = 0;
+  /// Elastic energy held at the solver's own integration points [J], for the node
+  /// positions in `state` (as download() gives them); NaN for solvers whose particles hold
+  /// it as sum V0 W(F) (the grid solvers) or that store no elastic energy (PB-MPM).
+  virtual double integrationPointEnergy(const HostParticles& /*state*/) const {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
   virtual size_t particleCount() const = 0;
   virtual size_t activeBlocks() const = 0;
   virtual size_t memoryBytes() const = 0;

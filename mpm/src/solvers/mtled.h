@@ -322,6 +322,23 @@ class MtledSystem final : public ShapeBackend<Exec> {
     exec_.copyToHost(out.v.data(), v_.data(), out.v.size() * sizeof(Vec3f));
   }
 
+  /// sum over points V_p W(F_p), F_p from the nodes' displacements as the internal force
+  /// kernel forms it: the energy whose gradient the forces are (energy balance, section 4.7).
+  double integrationPointEnergy(const HostParticles& state) const override {
+    if (dirty_) return 0.0;  // no step since the nodes changed: they are at their reference
+    const int n = model_.supportNodes;
+    double energy = 0;
+    for (size_t p = 0; p < model_.volumes.size(); ++p) {
+      Mat3f F = Mat3f::identity();
+      for (int k = 0; k < n; ++k) {
+        const uint32_t node = model_.support[p * n + k];
+        F = F + outer(state.x[node] - reference_[node], model_.shapeGradients[p * n + k]);
+      }
+      energy += (double)model_.volumes[p] * strainEnergyDensity(materialTable_[model_.pointObject[p]], F);
+    }
+    return energy;
+  }
+
   size_t particleCount() const override { return nodes_.size(); }
   size_t activeBlocks() const override { return 0; }  // no grid
   size_t memoryBytes() const override {
