@@ -1,3 +1,4 @@
+#include <algorithm>
 #include "shapes/shape_builder.h"
 
 #include <cmath>
@@ -94,7 +95,7 @@ void validateShapeDesc(const ShapeDesc& d) {
   validate::finite("ShapeDesc.gravity", d.gravity);
 }
 
-BodyView makeBody(const ShapeDesc& d, const ShapeState& s) {
+BodyView makeBody(const ShapeDesc& d, const ShapeState& s, float bondedBand) {
   BodyView b;
   b.rotation = rotationMatrix(s.pose.rotation);
   b.comLocal = d.centerOfMass;
@@ -107,7 +108,7 @@ BodyView makeBody(const ShapeDesc& d, const ShapeState& s) {
                                                    : kContactFrictional;
   b.friction = d.contact.friction;
   b.drag = d.contact.drag;
-  b.band = d.contact.band;
+  b.band = d.contact.mode == ContactMode::Bonded ? std::max(d.contact.band, bondedBand) : d.contact.band;
   b.dynamic = d.mass > 0.f ? 1 : 0;
   b.mass = d.mass;
   b.inertia = d.inertia;

@@ -18,8 +18,8 @@ void validateShapeDesc(const ShapeDesc& desc);
 /// Throws InvalidArgument for a non-finite pose or velocity, or a zero quaternion.
 void validateShapeState(const ShapeState& state);
 
-/// The body of a shape in `state`. Mesh parts take their values pointer from `meshValues`.
-BodyView makeBody(const ShapeDesc& desc, const ShapeState& state);
+/// The body of a shape in `state`; a Bonded shape's band is at least `bondedBand` [m].
+BodyView makeBody(const ShapeDesc& desc, const ShapeState& state, float bondedBand);
 /// Appends the shape's parts for body `bodyIndex`; `meshValues(values)` maps a mesh's
 /// host values to the backend's copy.
 template <class MeshValues>
