@@ -6,6 +6,7 @@
 // are stated where a solver needs its own.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -384,6 +385,69 @@ TEST_P(Contact, DragZeroCarriesTissueAndImpulseBalancesMomentum) {
     const double p = std::fabs(r->tissueMomentum[0]);
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(r->impulse[a], -r->tissueMomentum[a], 0.01 * p) << "axis " << a;
   }
+}
+
+// A shape whose bounds (grown by a cell and its band) miss every active grid block is
+// skipped: no centroid sums in P2G, no contact pass over the nodes, no push-out test in
+// G2P. So a block falling onto the floor next to a far kinematic box and a far dynamic
+// sphere (falling under its own gravity) moves bit for bit as it does alone, the shapes
+// receive no impulse and the dynamic one still falls freely. Then the kinematic box comes
+// into reach and stops the block: the skipping does not miss a contact.
+TEST_P(Contact, FarShapesChangeNothingAndNearOnesStillAct) {
+  SceneSettings s = base();
+  s.dx = 0.05f;
+  s.substeps.fixedSubsteps = 5;  // the CFL policy would count the shapes' speeds (PB-MPM)
+  const auto addBlock = [](Scene& scene) {
+    ParticleObjectDesc d;
+    d.center = {-0.5f, -0.6f, 0.f};
+    d.halfExtents = {0.15f, 0.15f, 0.15f};
+    d.material.youngsModulus = 2e4f;
+    return scene.addParticleObject(d);
+  };
+  Scene alone(s), withShapes(s);
+  const ParticleObjectId a = addBlock(alone), b = addBlock(withShapes);
+  ShapeDesc wall;
+  wall.parts = {box({0.1f, 0.5f, 0.5f})};
+  wall.pose.position = {0.5f, -0.5f, 0.f};  // 0.85 m beside the block
+  const ShapeId wallId = withShapes.addShape(wall);
+  ShapeDesc ball;
+  Geometry sphere;
+  sphere.type = GeometryType::Sphere;
+  sphere.radius = 0.1f;
+  ball.parts = {sphere};
+  ball.pose.position = {0.5f, 0.8f, 0.f};
+  ball.mass = 1.f;
+  ball.inertia = {0.004f, 0.004f, 0.004f};
+  ball.gravity = {0.f, -kG, 0.f};
+  const ShapeId ballId = withShapes.addShape(ball);
+  const float frame = 0.01f;
+  for (int f = 0; f < 20; ++f) {
+    alone.step(frame);
+    withShapes.step(frame);
+  }
+  std::vector<Vec3f> xa, xb;
+  alone.readPositions(a, xa);
+  withShapes.readPositions(b, xb);
+  ASSERT_EQ(xa.size(), xb.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < xa.size(); ++i) differ += xa[i].x != xb[i].x || xa[i].y != xb[i].y || xa[i].z != xb[i].z;
+  EXPECT_EQ(differ, 0u) << name() << ": particles moved differently beside far shapes";
+  EXPECT_EQ(withShapes.shapeImpulse(wallId).linear.x, 0.f);
+  EXPECT_EQ(withShapes.shapeImpulse(ballId).linear.y, 0.f);
+  const double t = 20 * frame;
+  EXPECT_NEAR(withShapes.shapeState(ballId).linearVelocity.y, -kG * t, 1e-4 * kG * t) << "free fall";
+
+  // the box slides to the block at 2 m/s and stops it against the left wall
+  ShapeState st = withShapes.shapeState(wallId);
+  st.linearVelocity = {-2.f, 0.f, 0.f};
+  withShapes.setShapeState(wallId, st);
+  for (int f = 0; f < 40; ++f) withShapes.step(frame);
+  withShapes.readPositions(b, xb);
+  const float face = withShapes.shapeState(wallId).pose.position.x - 0.1f;
+  float right = -1e9f;
+  for (const Vec3f& x : xb) right = std::max(right, x.x);
+  EXPECT_LT(right, face + 0.5f * s.dx) << name() << ": the block passed into the box";
+  EXPECT_GT(withShapes.shapeImpulse(wallId).linear.x, 0.f) << "the block pushed back on the box";
 }
 
 INSTANTIATE_TEST_SUITE_P(BackendsAndSolvers, Contact,

@@ -148,9 +148,12 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
   const GridGeometry& geometry() const { return geo_; }
   const MaterialParams* materials() const { return materials_.data(); }
   GridView grid() const { return bins_.gridView(); }
-  bool hasShapes() const { return shapes_.partCount() > 0; }
+  /// Whether a part can reach the material this substep (placeShapes decides): only then
+  /// do P2G sum the material centroids, the contact pass visit nodes and G2P test
+  /// particles against the parts, so a shape far from every particle costs nothing more.
+  bool hasShapes() const { return shapesInReach_; }
   const PartView* parts() const { return shapes_.parts(); }
-  int partCount() const { return shapes_.partCount(); }
+  int partCount() const { return shapesInReach_ ? shapes_.partCount() : 0; }
 
   /// Bins the particles by grid block and activates the blocks they reach.
   void binParticles() {
@@ -182,12 +185,15 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
     exec_.forEach(nodes, k);
     timings.gridUpdate += seconds(t0);
   }
-  /// Places the shapes' parts at their bodies' poses (once per substep).
+  /// Places the shapes' parts at their bodies' poses (once per substep, after binning and
+  /// before P2G) and decides whether any can reach the active blocks.
   void placeShapes() {
+    shapesInReach_ = false;
     if (shapes_.partCount() == 0) return;
     const auto t0 = Clock::now();
     // the contact band of a node reaches one cell beyond the part's own bounds
     shapes_.place(geo_.dx);
+    shapesInReach_ = exec_.partsReach(bins_, shapes_.parts(), shapes_.partCount());
     timings.contact += seconds(t0);
   }
   /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
@@ -197,6 +203,14 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
     const int nParts = shapes_.partCount(), nBodies = shapes_.bodyCount();
     if (nParts == 0) return;
     const auto t0 = Clock::now();
+    if (!shapesInReach_) {  // no node can touch a part: dynamic bodies only feel gravity
+      shapes_.clearStepSums();
+      if (shapes_.anyDynamic() && bodyGravity) shapes_.accelerate(dt);
+      shapes_.predict();  // with nothing received: V' = V
+      shapes_.settle();
+      timings.contact += seconds(t0);
+      return;
+    }
     if (shapes_.anyDynamic()) {
       if (bodyGravity) shapes_.accelerate(dt);
       exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), 0);
@@ -259,6 +273,7 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
   typename Exec::Binning bins_;
   size_t count_ = 0;
   WallParams walls_;  ///< of the current substep
+  bool shapesInReach_ = false;  ///< of the current substep (placeShapes)
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_;
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER

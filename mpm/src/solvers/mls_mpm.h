@@ -37,8 +37,8 @@ struct MlsMpm {
     ParticleView P;
     GridGeometry geo;
     float dt;
-    const PartView* parts;
-    int nParts;
+    const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
+    int nParts = 0;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
@@ -57,7 +57,7 @@ struct MlsMpm {
   template <class System>
   static void substep(System& s, const SubstepParams& p) {
     const ParticleView P = s.particles();
-    explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, s.parts(), s.partCount()}, P, s.geometry(),
+    explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt}, P, s.geometry(),
                                      s.materials(), p.dt);
   }
 };

@@ -62,8 +62,8 @@ struct PbMpm {
     GridGeometry geo;
     float dt;
     bool integrate;  ///< the last cycle: also move the particle and advance F
-    const PartView* parts;
-    int nParts;
+    const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
+    int nParts = 0;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);

@@ -80,8 +80,8 @@ struct StandardMpm {
     GridGeometry geo;
     float dt;
     float flip;  ///< FLIP share of the velocity update
-    const PartView* parts;
-    int nParts;
+    const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
+    int nParts = 0;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
@@ -127,7 +127,7 @@ struct StandardMpm {
   template <class System>
   static void substep(System& s, const SubstepParams& p) {
     const ParticleView P = s.particles();
-    explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, p.solver.flipBlend, s.parts(), s.partCount()},
+    explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, p.solver.flipBlend},
                                      P, s.geometry(), s.materials(), p.dt);
   }
 };

@@ -124,7 +124,8 @@ MPM_HD StepCheck strayParticle(uint32_t p, const ParticleView& P) {
 }
 
 /// P2G through the kernel template K<kCentroid>: with the material centroid w m x_p only
-/// when the scene has shapes (contact needs it; a scene without shapes does not pay).
+/// when a shape can reach the material this substep (contact needs it; a scene without
+/// shapes, or with shapes far away, does not pay).
 template <template <bool> class K, class System, class... Args>
 void scatterParticles(System& s, const Args&... args) {
   if (s.hasShapes())
@@ -133,19 +134,29 @@ void scatterParticles(System& s, const Args&... args) {
     s.scatter(K<false>{args...});
 }
 
-/// The substep of an explicit solver (MLS-MPM, standard MPM): bin, clear, P2G, grid
-/// update, rigid contact and bodies, G2P. P2G<kCentroid> is built from `p2gArgs`; the
-/// grid kernel (fields grid, dt, gravity, walls) only after binning, which sets the grid.
+/// A G2P kernel given the parts that can reach the material this substep (fields `parts`,
+/// `nParts`; none when placeShapes found every shape out of reach).
+template <class System, class G2PKernel>
+G2PKernel withParts(const System& s, G2PKernel k) {
+  k.parts = s.parts();
+  k.nParts = s.partCount();
+  return k;
+}
+
+/// The substep of an explicit solver (MLS-MPM, standard MPM): bin, place the shapes,
+/// clear, P2G, grid update, rigid contact and bodies, G2P. P2G<kCentroid> is built from
+/// `p2gArgs`; the grid kernel (fields grid, dt, gravity, walls) only after binning, which
+/// sets the grid; `g2p` gets its parts here.
 template <template <bool> class P2G, class GridKernel, class System, class G2PKernel, class... P2GArgs>
 void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, const P2GArgs&... p2gArgs) {
   s.binParticles();
+  s.placeShapes();
   s.clearGrid();
   scatterParticles<P2G>(s, p2gArgs...);
   s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});
-  s.placeShapes();
   s.exchangeContact(p.dt, true);
   s.moveShapes(p.dt);
-  s.gather(g2p);
+  s.gather(withParts(s, g2p));
 }
 
 /// Stencil nodes reached through the block table, accumulated with `Add` (GPU atomics).

@@ -305,6 +305,26 @@ struct CpuExec {
       }
     }
 
+    /// Whether any part's bounds (grown by its contact reach) meet the box of the active
+    /// blocks: if none does, no node or particle can touch a shape this substep.
+    bool partsReach(const PartView* parts, int nParts) const {
+      if (active_.empty() || nParts == 0) return false;
+      int lo[3] = {1 << 30, 1 << 30, 1 << 30}, hi[3] = {-1, -1, -1};
+      for (uint32_t b : active_) {
+        int c[3];
+        geo_.blockCoords(b, c[0], c[1], c[2]);
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], c[a]);
+          hi[a] = std::max(hi[a], c[a]);
+        }
+      }
+      const Vec3f boxLo = geo_.lower + (geo_.dx * kBlockSize) * Vec3f{(float)lo[0], (float)lo[1], (float)lo[2]};
+      const Vec3f boxHi = geo_.lower + (geo_.dx * kBlockSize) * Vec3f{(float)hi[0] + 1, (float)hi[1] + 1, (float)hi[2] + 1};
+      for (int p = 0; p < nParts; ++p)
+        if (parts[p].mayTouch(boxLo, boxHi)) return true;
+      return false;
+    }
+
     GridView gridView() const {
       GridView g;
       g.geo = geo_;
@@ -362,6 +382,7 @@ struct CpuExec {
   void bin(const ParticleView& P, Binning& b) { b.build(P, threads); }
   template <class F>
   void particleToGrid(const Binning& b, const F& f) { b.particleToGrid(f, threads); }
+  bool partsReach(const Binning& b, const PartView* parts, int nParts) const { return b.partsReach(parts, nParts); }
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass) {
     b.contactPass(parts, nParts, bodies, nBodies, out, pass, threads);

@@ -143,6 +143,10 @@ struct CudaExec {
   class Binning;
 
   void bin(const ParticleView& P, Binning& b);
+  /// The parts and the active blocks are device data: asking whether they meet would wait
+  /// on the device every substep, so the CUDA backend answers yes whenever parts exist (a
+  /// far shape still costs its contact terms there; the CPU backend skips them).
+  bool partsReach(const Binning& /*b*/, const PartView* /*parts*/, int nParts) const { return nParts > 0; }
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass);
   template <class F>
