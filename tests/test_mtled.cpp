@@ -61,8 +61,9 @@ struct CylinderRun {
 /// Runs the compression with nodes `spacing` apart; forces sampled at the reference times
 /// 0.1 s, 0.2 s, ... (each the mean over a frame centred on the time, so the mean is the
 /// value at the sample to second order).
-CylinderRun compressCylinder(float spacing, ContactMode ends) {
+CylinderRun compressCylinder(float spacing, ContactMode ends, bool smoothedStrain = false) {
   SceneSettings s;
+  s.mtled.smoothedStrain = smoothedStrain;
   s.domain = {{-0.1f, -0.05f, -0.1f}, {0.1f, 0.15f, 0.1f}};
   s.domain.walls = false;
   s.dx = 0.01f;
@@ -132,35 +133,43 @@ double at(const std::vector<double>& times, const std::vector<double>& values, d
   return 0;
 }
 
-TEST(Mtled, SlipCompressionFollowsTheHomogeneousSolution) {
+/// Slip ends against the closed-form homogeneous solution: the largest deviation over the
+/// ramp and the final one, both relative to the final force (early samples are small and
+/// carry the wave noise).
+struct SlipErrors {
+  double worst = 0, final = 0;
+};
+SlipErrors slipErrors(const CylinderRun& run, const char* label) {
   const auto ref = readCsv("cylinder_compression_slip.csv");  // t, FE force, closed-form force
-  const CylinderRun run = compressCylinder(0.01f, ContactMode::Frictional);
-  ASSERT_FALSE(run.time.empty());
+  SlipErrors e;
+  if (run.time.empty()) {
+    ADD_FAILURE() << "no samples";
+    return e;
+  }
   const double finalRef = at(ref[0], ref[2], kRampTime);
-  double worst = 0;
   for (size_t i = 0; i < run.time.size(); ++i) {
     const double expected = at(ref[0], ref[2], run.time[i]);
-    // relative to the final force: early samples are small and carry the wave noise
-    worst = std::max(worst, std::abs(run.force[i] - expected) / std::abs(finalRef));
+    e.worst = std::max(e.worst, std::abs(run.force[i] - expected) / std::abs(finalRef));
     std::printf("  t = %.1f s  F = %.5f N  closed form %.5f N  (%.2f %%)\n", run.time[i], run.force[i], expected,
                 100 * (run.force[i] - expected) / std::abs(expected));
   }
-  std::printf("slip: %zu nodes, substep %.3g s, %.1f s; largest deviation %.2f %% of the final force\n", run.nodes,
-              run.substepDt, run.seconds, 100 * worst);
-  // The goal is 1 %; measured 2.9 % (soft) at the paper's two integration points per node,
-  // the same at spacing 0.00625 m: the error is the background integration's (the n-nearest
-  // MLS derivatives do not integrate to zero over interior nodes), which does not shrink
-  // with the spacing at a fixed cells-per-spacing ratio, and is not monotonic in that ratio
-  // (1: -4.3 %, 1.5: -1.3 %, 2: +2.2 %, 3: +0.1 %, 4: +1.5 %). Bounded here at what is
-  // achieved, so a regression shows.
-  EXPECT_LT(std::abs(run.force.back() - finalRef) / std::abs(finalRef), 0.035);
-  EXPECT_LT(worst, 0.035);
+  e.final = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
+  std::printf("slip, %s: %zu nodes, substep %.3g s, %.1f s; final %.2f %%, largest deviation %.2f %% of the final force\n",
+              label, run.nodes, run.substepDt, run.seconds, 100 * e.final, 100 * e.worst);
+  return e;
 }
 
-TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
+/// Bonded ends against the extrapolated finite-element curve: final and L2 errors.
+struct BondedErrors {
+  double final = 0, curve = 0;
+};
+BondedErrors bondedErrors(const CylinderRun& run, const char* label) {
   const auto ref = readCsv("cylinder_compression_extrapolated.csv");
-  const CylinderRun run = compressCylinder(0.01f, ContactMode::Bonded);
-  ASSERT_FALSE(run.time.empty());
+  BondedErrors e;
+  if (run.time.empty()) {
+    ADD_FAILURE() << "no samples";
+    return e;
+  }
   double diff2 = 0, ref2 = 0;
   for (size_t i = 0; i < run.time.size(); ++i) {
     const double expected = at(ref[0], ref[1], run.time[i]);
@@ -170,13 +179,51 @@ TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
                 100 * (run.force[i] - expected) / std::abs(expected));
   }
   const double finalRef = at(ref[0], ref[1], kRampTime);
-  const double finalError = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
-  const double curveError = std::sqrt(diff2 / ref2);
-  std::printf("bonded: %zu nodes, substep %.3g s, %.1f s; final %.4f N vs %.4f N (%.2f %%), curve L2 %.2f %%\n",
-              run.nodes, run.substepDt, run.seconds, run.force.back(), finalRef, 100 * finalError,
-              100 * curveError);
-  EXPECT_LT(finalError, 0.03);
-  EXPECT_LT(curveError, 0.05);
+  e.final = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
+  e.curve = std::sqrt(diff2 / ref2);
+  std::printf("bonded, %s: %zu nodes, substep %.3g s, %.1f s; final %.4f N vs %.4f N (%.2f %%), curve L2 %.2f %%\n",
+              label, run.nodes, run.substepDt, run.seconds, run.force.back(), finalRef, 100 * e.final,
+              100 * e.curve);
+  return e;
+}
+
+// Node spacing 0.01 m (891 nodes, 1885 integration points). Measured with the paper's
+// point derivatives | with smoothed strain (MtledSettings::smoothedStrain):
+//   spacing   slip, largest deviation   bonded, final / L2
+//   0.01 m     2.9 % | 0.15 %           +1.1 / 0.8 % | +5.9 / 5.3 %
+//   0.0083 m   3.3 % | 0.06 %           +0.1 / 0.7 % | +1.8 / 1.5 %
+//   0.00625 m  3.1 % | 2.0 %            -3.5 / 3.7 % | +4.8 / 4.2 %
+// (+: stiffer). Finite elements of comparable size are 4.4 % (axisymmetric 8 x 16) and
+// 4.9 % (3-D quarter (8,4,12)) stiff in the bonded case (reference README) and converge
+// slowly from above; the point derivatives, about 3 % soft whatever the spacing (slip),
+// land on the bonded curve by offsetting that, and fall below it as the spacing shrinks.
+
+TEST(Mtled, SlipCompressionFollowsTheHomogeneousSolution) {
+  // The paper's point derivatives fail the patch test (see MtledSettings::smoothedStrain):
+  // bounded at what they achieve, so a regression shows.
+  const SlipErrors e = slipErrors(compressCylinder(0.01f, ContactMode::Frictional), "point derivatives");
+  EXPECT_LT(e.final, 0.035);
+  EXPECT_LT(e.worst, 0.035);
+}
+
+TEST(Mtled, SlipCompressionWithSmoothedStrainIsWithinOnePercent) {
+  const SlipErrors e = slipErrors(compressCylinder(0.01f, ContactMode::Frictional, true), "smoothed strain");
+  EXPECT_LT(e.final, 0.01);
+  EXPECT_LT(e.worst, 0.01);
+}
+
+TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
+  const BondedErrors e = bondedErrors(compressCylinder(0.01f, ContactMode::Bonded), "point derivatives");
+  EXPECT_LT(e.final, 0.03);
+  EXPECT_LT(e.curve, 0.05);
+}
+
+TEST(Mtled, BondedCompressionWithSmoothedStrainIsStiffLikeFiniteElements) {
+  // stiff by about what finite elements of this size are (above); bounded at what is
+  // achieved, so a regression shows
+  const BondedErrors e = bondedErrors(compressCylinder(0.01f, ContactMode::Bonded, true), "smoothed strain");
+  EXPECT_LT(e.final, 0.065);
+  EXPECT_LT(e.curve, 0.06);
 }
 
 TEST(Mtled, SettingsAreValidated) {
