@@ -4,8 +4,8 @@
 // points on a regular background grid (one point per cell holding material). The
 // displacement is interpolated with moving least squares over the n nearest nodes (linear
 // basis, quartic spline weight); each point's derivatives at the reference configuration
-// are computed once (mtled_setup.cpp): the MLS derivatives at the point (the paper), or by
-// default their average over the cell's material (MtledSettings::smoothedStrain). Every
+// are computed once (mtled_setup.cpp): the MLS derivatives at the point (the paper), or
+// their average over the cell's material (MtledSettings::smoothedStrain). Every
 // substep, for each integration point: F = I + sum_i u_i (x) grad phi_i over its nodes,
 // first Piola stress P = tau F^-T, nodal forces V P grad phi_i; for each node the
 // central-difference update with the lumped mass.
