@@ -61,7 +61,7 @@ struct CylinderRun {
 /// Runs the compression with nodes `spacing` apart; forces sampled at the reference times
 /// 0.1 s, 0.2 s, ... (each the mean over a frame centred on the time, so the mean is the
 /// value at the sample to second order).
-CylinderRun compressCylinder(float spacing, ContactMode ends, bool smoothedStrain = false) {
+CylinderRun compressCylinder(float spacing, ContactMode ends, bool smoothedStrain = true) {
   SceneSettings s;
   s.mtled.smoothedStrain = smoothedStrain;
   s.domain = {{-0.1f, -0.05f, -0.1f}, {0.1f, 0.15f, 0.1f}};
@@ -187,43 +187,39 @@ BondedErrors bondedErrors(const CylinderRun& run, const char* label) {
   return e;
 }
 
-// Node spacing 0.01 m (891 nodes, 1885 integration points). Measured with the paper's
-// point derivatives | with smoothed strain (MtledSettings::smoothedStrain):
-//   spacing   slip, largest deviation   bonded, final / L2
-//   0.01 m     2.9 % | 0.15 %           +1.1 / 0.8 % | +5.9 / 5.3 %
-//   0.0083 m   3.3 % | 0.06 %           +0.1 / 0.7 % | +1.8 / 1.5 %
-//   0.00625 m  3.1 % | 2.0 %            -3.5 / 3.7 % | +4.8 / 4.2 %
-// (+: stiffer). Finite elements of comparable size are 4.4 % (axisymmetric 8 x 16) and
-// 4.9 % (3-D quarter (8,4,12)) stiff in the bonded case (reference README) and converge
-// slowly from above; the point derivatives, about 3 % soft whatever the spacing (slip),
-// land on the bonded curve by offsetting that, and fall below it as the spacing shrinks.
+// Measured, smoothed strain (the default) | the paper's point derivatives
+// (MtledSettings::smoothedStrain), +: stiffer:
+//   node spacing        slip, largest deviation   bonded, final / L2
+//   0.01 m (891)        0.19 % | 2.9 %            +6.0 / 5.3 % | +1.1 / 0.8 %
+//   0.0083 m (1469)     0.40 % | 3.3 %            +1.5 / 1.2 % | +0.1 / 0.7 %
+//   0.00625 m (3349)    0.34 % | 3.1 %            +2.4 / 2.0 % | -3.5 / 3.7 %
+// Finite elements of the coarsest size are 4.4 % (axisymmetric 8 x 16) and 4.9 % (3-D
+// quarter (8,4,12)) stiff in the bonded case and converge slowly from above (reference
+// README). The point derivatives are about 3 % soft whatever the spacing (slip), which
+// offsets that at the coarse spacings only. The tests run at 0.0083 m, the coarsest
+// spacing that meets the goals (1 %; 3 % and 5 %).
+constexpr float kSpacing = 0.1f / 12;
 
 TEST(Mtled, SlipCompressionFollowsTheHomogeneousSolution) {
-  // The paper's point derivatives fail the patch test (see MtledSettings::smoothedStrain):
-  // bounded at what they achieve, so a regression shows.
-  const SlipErrors e = slipErrors(compressCylinder(0.01f, ContactMode::Frictional), "point derivatives");
-  EXPECT_LT(e.final, 0.035);
-  EXPECT_LT(e.worst, 0.035);
-}
-
-TEST(Mtled, SlipCompressionWithSmoothedStrainIsWithinOnePercent) {
-  const SlipErrors e = slipErrors(compressCylinder(0.01f, ContactMode::Frictional, true), "smoothed strain");
+  const SlipErrors e = slipErrors(compressCylinder(kSpacing, ContactMode::Frictional), "smoothed strain");
   EXPECT_LT(e.final, 0.01);
   EXPECT_LT(e.worst, 0.01);
 }
 
 TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
-  const BondedErrors e = bondedErrors(compressCylinder(0.01f, ContactMode::Bonded), "point derivatives");
+  const BondedErrors e = bondedErrors(compressCylinder(kSpacing, ContactMode::Bonded), "smoothed strain");
   EXPECT_LT(e.final, 0.03);
   EXPECT_LT(e.curve, 0.05);
 }
 
-TEST(Mtled, BondedCompressionWithSmoothedStrainIsStiffLikeFiniteElements) {
-  // stiff by about what finite elements of this size are (above); bounded at what is
-  // achieved, so a regression shows
-  const BondedErrors e = bondedErrors(compressCylinder(0.01f, ContactMode::Bonded, true), "smoothed strain");
-  EXPECT_LT(e.final, 0.065);
-  EXPECT_LT(e.curve, 0.06);
+// The paper's point derivatives at 0.01 m, bounded at what they achieve so a regression
+// shows: slip 2.9 % soft (they fail the patch test), bonded within 1.1 %.
+TEST(Mtled, PaperPointDerivativesKeepTheirMeasuredErrors) {
+  const SlipErrors slip = slipErrors(compressCylinder(0.01f, ContactMode::Frictional, false), "point derivatives");
+  EXPECT_LT(slip.worst, 0.035);
+  const BondedErrors bonded = bondedErrors(compressCylinder(0.01f, ContactMode::Bonded, false), "point derivatives");
+  EXPECT_LT(bonded.final, 0.03);
+  EXPECT_LT(bonded.curve, 0.05);
 }
 
 TEST(Mtled, SettingsAreValidated) {

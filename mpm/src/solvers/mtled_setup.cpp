@@ -41,8 +41,8 @@ class NodeBuckets {
     for (uint32_t i : nodes) entries_[cursor[cellOf(X[i])]++] = i;
   }
 
-  /// The k nodes nearest to q, nearest first (ties by node index, so the result does not
-  /// depend on the order of the search).
+  /// The k nodes nearest to q (all, if fewer), nearest first (ties by node index, so the
+  /// result does not depend on the order of the search).
   void nearest(Vec3f q, int k, std::vector<std::pair<double, uint32_t>>& out) const {
     out.clear();
     int c[3];
@@ -69,6 +69,7 @@ class NodeBuckets {
       const double reach = r * cell_;
       if (out.back().first <= reach * reach) return;
     }
+    std::sort(out.begin(), out.end());  // fewer than k nodes in all: all of them
   }
 
  private:
@@ -89,11 +90,21 @@ class NodeBuckets {
 double quarticWeight(double q) { return q >= 1 ? 0 : 1 - 6 * q * q + 8 * q * q * q - 3 * q * q * q * q; }
 double quarticWeightSlope(double q) { return q >= 1 ? 0 : -12 * q + 24 * q * q - 12 * q * q * q; }
 
+/// Whether a moment matrix (symmetric, of order one) can be inverted: its eigenvalues, not
+/// the LU's condition estimate, which exactly coplanar nodes fool.
+template <class Matrix>
+bool wellConditioned(const Matrix& A) {
+  const Eigen::SelfAdjointEigenSolver<Matrix> eigen(A, Eigen::EigenvaluesOnly);
+  const auto& lambda = eigen.eigenvalues();  // ascending
+  return lambda(0) >= 1e-9 * lambda(lambda.size() - 1);
+}
+
 /// Values phi_i (if `values`) and derivatives d phi_i / dx (if `gradients`) at x0 of the
 /// MLS shape functions (eqs. 7-8, 18-25) with the linear basis p = (1, x, y, z), over the
 /// given support nodes, nearest first. Coordinates are taken relative to x0 and scaled by
 /// the farthest node's distance s, so the moment matrix is of order one whatever the units.
-void mlsShapeFunctions(Vec3f x0, const std::vector<Vec3f>& X, const std::vector<std::pair<double, uint32_t>>& support,
+/// False (nothing written) if the moment matrix is singular: the nodes are coplanar.
+bool mlsShapeFunctions(Vec3f x0, const std::vector<Vec3f>& X, const std::vector<std::pair<double, uint32_t>>& support,
                        double alpha, double* values, Eigen::Vector3d* gradients) {
   const int n = (int)support.size();
   const double s = std::sqrt(support.back().first);
@@ -114,22 +125,25 @@ void mlsShapeFunctions(Vec3f x0, const std::vector<Vec3f>& X, const std::vector<
     A += w[i] * p[i] * p[i].transpose();
     for (int k = 0; k < 3; ++k) dA[k] += dw[i][k] * p[i] * p[i].transpose();
   }
+  if (!wellConditioned(A)) return false;
   const Eigen::FullPivLU<Eigen::Matrix4d> lu(A);
-  if (lu.rcond() < 1e-9) {
-    std::ostringstream m;
-    m << "MTLED: the moment matrix at " << validate::show(x0) << " is singular (its " << n
-      << " support nodes are nearly coplanar); use more support nodes";
-    throw Error(m.str());
-  }
   const Eigen::Vector4d gamma = lu.solve(Eigen::Vector4d(1, 0, 0, 0));  // A^-1 p(x0)
   if (values)
     for (int i = 0; i < n; ++i) values[i] = w[i] * gamma.dot(p[i]);
-  if (!gradients) return;
+  if (!gradients) return true;
   for (int k = 0; k < 3; ++k) {
     // d gamma / d x_k = A^-1 (d p / d x_k - dA_k gamma)
     const Eigen::Vector4d dgamma = lu.solve(Eigen::Vector4d::Unit(k + 1) - dA[k] * gamma);
     for (int i = 0; i < n; ++i) gradients[i][k] = (w[i] * dgamma.dot(p[i]) + dw[i][k] * gamma.dot(p[i])) / s;
   }
+  return true;
+}
+
+Error singular(Vec3f x, size_t nodes) {
+  std::ostringstream m;
+  m << "MTLED: the moment matrix at " << validate::show(x) << " is singular (its " << nodes
+    << " support nodes are nearly coplanar); use more support nodes";
+  return Error(m.str());
 }
 
 /// Shape-function derivatives of one node, summed over the terms that name it.
@@ -356,29 +370,36 @@ MtledModel buildMtledModel(const MtledSettings& settings, const std::vector<Vec3
     buckets[o] = std::make_unique<NodeBuckets>(X, objectNodes[o]);
   }
   m.termStart.assign(nPoints + 1, 0);
-  std::vector<std::pair<double, uint32_t>> support(n);
-  std::vector<double> phi(n);
-  std::vector<Eigen::Vector3d> grad(n);
+  std::vector<std::pair<double, uint32_t>> support;
+  std::vector<double> phi(4 * n);
+  std::vector<Eigen::Vector3d> grad(4 * n);
+  // MLS at x over the n nearest kept nodes of object o, or more where those are coplanar
+  // (x beyond the outermost layer of nodes, whose nearest may all lie in it); the nodes
+  // are left in `support`
+  const auto shapeFunctionsAt = [&](Vec3f x, uint32_t o, double* values, Eigen::Vector3d* gradients) {
+    buckets[o]->nearest(x, n, support);
+    if (mlsShapeFunctions(x, X, support, settings.supportScale, values, gradients)) return;
+    buckets[o]->nearest(x, 4 * n, near);
+    for (size_t count = n + 1; count <= near.size(); ++count) {
+      support.assign(near.begin(), near.begin() + count);
+      if (mlsShapeFunctions(x, X, support, settings.supportScale, values, gradients)) return;
+    }
+    throw singular(x, support.size());
+  };
   NodeGradients terms;
   for (size_t p = 0; p < nPoints; ++p) {
     terms.clear();
     if (settings.smoothedStrain) {
       // the average over the cell's material: (1 / V) sum over its surface of phi_i(x_q) a_q
       for (uint32_t q = cells.surfaceStart[p]; q < cells.surfaceStart[p + 1]; ++q) {
-        buckets[pointObject[p]]->nearest(cells.surfacePoints[q], n, near);
-        mlsShapeFunctions(cells.surfacePoints[q], X, near, settings.supportScale, phi.data(), nullptr);
         const Vec3f a = cells.surfaceAreas[q];
-        for (int k = 0; k < n; ++k) terms.add(near[k].second, (phi[k] / cells.volumes[p]) * Eigen::Vector3d(a.x, a.y, a.z));
+        shapeFunctionsAt(cells.surfacePoints[q], pointObject[p], phi.data(), nullptr);
+        for (size_t k = 0; k < support.size(); ++k)
+          terms.add(support[k].second, (phi[k] / cells.volumes[p]) * Eigen::Vector3d(a.x, a.y, a.z));
       }
     } else {
-      for (int k = 0; k < n; ++k) {
-        const uint32_t i = domain[p * n + k];
-        const Vec3f d = X[i] - cells.points[p];
-        support[k] = {(double)dot(d, d), i};
-      }
-      // the farthest node sets the support radius (the search returns nearest first)
-      mlsShapeFunctions(cells.points[p], X, support, settings.supportScale, nullptr, grad.data());
-      for (int k = 0; k < n; ++k) terms.add(support[k].second, grad[k]);
+      shapeFunctionsAt(cells.points[p], pointObject[p], nullptr, grad.data());
+      for (size_t k = 0; k < support.size(); ++k) terms.add(support[k].second, grad[k]);
     }
     double g = 0;  // sum of the squared derivatives
     for (size_t k = 0; k < terms.nodes.size(); ++k) {
