@@ -67,9 +67,10 @@ struct MtledSettings {
   /// coarse spacings only because that softness offsets the coarse model's stiffness.
   bool smoothedStrain = true;
   /// Substep = timeStepSafety * the critical step of eq. 37, in (0, 1]. Eq. 37 is not a
-  /// bound here: the seed 004 cylinder (node spacing 0.01 m) ran at 0.6 of it and diverged
-  /// at 0.9; compressed ten times faster it is stable to 0.625 and fails at 0.656
-  /// (bench_stability; seed 004 found 1.34 on its own cylinder).
+  /// bound here: the seed 004 cylinder (node spacing 0.01 m) compressed ten times faster
+  /// is stable to 0.906 of it and fails at 0.938 with smoothed strain (bench_stability);
+  /// with the point derivatives it ran at 0.6 and diverged at 0.9, stable to 0.625 and
+  /// failing at 0.656 in the fast compression (seed 004 found 1.34 on its own cylinder).
   float timeStepSafety = 0.5f;
 };
 

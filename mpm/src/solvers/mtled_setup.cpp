@@ -139,6 +139,7 @@ bool mlsShapeFunctions(Vec3f x0, const std::vector<Vec3f>& X, const std::vector<
   return true;
 }
 
+/// The error for a point whose moment matrix stays singular.
 Error singular(Vec3f x, size_t nodes) {
   std::ostringstream m;
   m << "MTLED: the moment matrix at " << validate::show(x) << " is singular (its " << nodes
