@@ -61,8 +61,9 @@ struct CylinderRun {
 /// Runs the compression with nodes `spacing` apart; forces sampled at the reference times
 /// 0.1 s, 0.2 s, ... (each the mean over a frame centred on the time, so the mean is the
 /// value at the sample to second order).
-CylinderRun compressCylinder(float spacing, ContactMode ends) {
+CylinderRun compressCylinder(float spacing, ContactMode ends, bool smoothedStrain = true) {
   SceneSettings s;
+  s.mtled.smoothedStrain = smoothedStrain;
   s.domain = {{-0.1f, -0.05f, -0.1f}, {0.1f, 0.15f, 0.1f}};
   s.domain.walls = false;
   s.dx = 0.01f;
@@ -132,35 +133,43 @@ double at(const std::vector<double>& times, const std::vector<double>& values, d
   return 0;
 }
 
-TEST(Mtled, SlipCompressionFollowsTheHomogeneousSolution) {
+/// Slip ends against the closed-form homogeneous solution: the largest deviation over the
+/// ramp and the final one, both relative to the final force (early samples are small and
+/// carry the wave noise).
+struct SlipErrors {
+  double worst = 0, final = 0;
+};
+SlipErrors slipErrors(const CylinderRun& run, const char* label) {
   const auto ref = readCsv("cylinder_compression_slip.csv");  // t, FE force, closed-form force
-  const CylinderRun run = compressCylinder(0.01f, ContactMode::Frictional);
-  ASSERT_FALSE(run.time.empty());
+  SlipErrors e;
+  if (run.time.empty()) {
+    ADD_FAILURE() << "no samples";
+    return e;
+  }
   const double finalRef = at(ref[0], ref[2], kRampTime);
-  double worst = 0;
   for (size_t i = 0; i < run.time.size(); ++i) {
     const double expected = at(ref[0], ref[2], run.time[i]);
-    // relative to the final force: early samples are small and carry the wave noise
-    worst = std::max(worst, std::abs(run.force[i] - expected) / std::abs(finalRef));
+    e.worst = std::max(e.worst, std::abs(run.force[i] - expected) / std::abs(finalRef));
     std::printf("  t = %.1f s  F = %.5f N  closed form %.5f N  (%.2f %%)\n", run.time[i], run.force[i], expected,
                 100 * (run.force[i] - expected) / std::abs(expected));
   }
-  std::printf("slip: %zu nodes, substep %.3g s, %.1f s; largest deviation %.2f %% of the final force\n", run.nodes,
-              run.substepDt, run.seconds, 100 * worst);
-  // The goal is 1 %; measured 2.9 % (soft) at the paper's two integration points per node,
-  // the same at spacing 0.00625 m: the error is the background integration's (the n-nearest
-  // MLS derivatives do not integrate to zero over interior nodes), which does not shrink
-  // with the spacing at a fixed cells-per-spacing ratio, and is not monotonic in that ratio
-  // (1: -4.3 %, 1.5: -1.3 %, 2: +2.2 %, 3: +0.1 %, 4: +1.5 %). Bounded here at what is
-  // achieved, so a regression shows.
-  EXPECT_LT(std::abs(run.force.back() - finalRef) / std::abs(finalRef), 0.035);
-  EXPECT_LT(worst, 0.035);
+  e.final = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
+  std::printf("slip, %s: %zu nodes, substep %.3g s, %.1f s; final %.2f %%, largest deviation %.2f %% of the final force\n",
+              label, run.nodes, run.substepDt, run.seconds, 100 * e.final, 100 * e.worst);
+  return e;
 }
 
-TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
+/// Bonded ends against the extrapolated finite-element curve: final and L2 errors.
+struct BondedErrors {
+  double final = 0, curve = 0;
+};
+BondedErrors bondedErrors(const CylinderRun& run, const char* label) {
   const auto ref = readCsv("cylinder_compression_extrapolated.csv");
-  const CylinderRun run = compressCylinder(0.01f, ContactMode::Bonded);
-  ASSERT_FALSE(run.time.empty());
+  BondedErrors e;
+  if (run.time.empty()) {
+    ADD_FAILURE() << "no samples";
+    return e;
+  }
   double diff2 = 0, ref2 = 0;
   for (size_t i = 0; i < run.time.size(); ++i) {
     const double expected = at(ref[0], ref[1], run.time[i]);
@@ -170,13 +179,47 @@ TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
                 100 * (run.force[i] - expected) / std::abs(expected));
   }
   const double finalRef = at(ref[0], ref[1], kRampTime);
-  const double finalError = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
-  const double curveError = std::sqrt(diff2 / ref2);
-  std::printf("bonded: %zu nodes, substep %.3g s, %.1f s; final %.4f N vs %.4f N (%.2f %%), curve L2 %.2f %%\n",
-              run.nodes, run.substepDt, run.seconds, run.force.back(), finalRef, 100 * finalError,
-              100 * curveError);
-  EXPECT_LT(finalError, 0.03);
-  EXPECT_LT(curveError, 0.05);
+  e.final = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
+  e.curve = std::sqrt(diff2 / ref2);
+  std::printf("bonded, %s: %zu nodes, substep %.3g s, %.1f s; final %.4f N vs %.4f N (%.2f %%), curve L2 %.2f %%\n",
+              label, run.nodes, run.substepDt, run.seconds, run.force.back(), finalRef, 100 * e.final,
+              100 * e.curve);
+  return e;
+}
+
+// Measured, smoothed strain (the default) | the paper's point derivatives
+// (MtledSettings::smoothedStrain), +: stiffer:
+//   node spacing        slip, largest deviation   bonded, final / L2
+//   0.01 m (891)        0.19 % | 2.9 %            +6.0 / 5.3 % | +1.1 / 0.8 %
+//   0.0083 m (1469)     0.40 % | 3.3 %            +1.5 / 1.2 % | +0.1 / 0.7 %
+//   0.00625 m (3349)    0.34 % | 3.1 %            +2.4 / 2.0 % | -3.5 / 3.7 %
+// Finite elements of the coarsest size are 4.4 % (axisymmetric 8 x 16) and 4.9 % (3-D
+// quarter (8,4,12)) stiff in the bonded case and converge slowly from above (reference
+// README). The point derivatives are about 3 % soft whatever the spacing (slip), which
+// offsets that at the coarse spacings only. The tests run at 0.0083 m, the coarsest
+// spacing that meets the goals (1 %; 3 % and 5 %).
+constexpr float kSpacing = 0.1f / 12;
+
+TEST(Mtled, SlipCompressionFollowsTheHomogeneousSolution) {
+  const SlipErrors e = slipErrors(compressCylinder(kSpacing, ContactMode::Frictional), "smoothed strain");
+  EXPECT_LT(e.final, 0.01);
+  EXPECT_LT(e.worst, 0.01);
+}
+
+TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
+  const BondedErrors e = bondedErrors(compressCylinder(kSpacing, ContactMode::Bonded), "smoothed strain");
+  EXPECT_LT(e.final, 0.03);
+  EXPECT_LT(e.curve, 0.05);
+}
+
+// The paper's point derivatives at 0.01 m, bounded at what they achieve so a regression
+// shows: slip 2.9 % soft (they fail the patch test), bonded within 1.1 %.
+TEST(Mtled, PaperPointDerivativesKeepTheirMeasuredErrors) {
+  const SlipErrors slip = slipErrors(compressCylinder(0.01f, ContactMode::Frictional, false), "point derivatives");
+  EXPECT_LT(slip.worst, 0.035);
+  const BondedErrors bonded = bondedErrors(compressCylinder(0.01f, ContactMode::Bonded, false), "point derivatives");
+  EXPECT_LT(bonded.final, 0.03);
+  EXPECT_LT(bonded.curve, 0.05);
 }
 
 TEST(Mtled, SettingsAreValidated) {

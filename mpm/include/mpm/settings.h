@@ -50,10 +50,27 @@ struct MtledSettings {
   /// Background integration cells per node spacing along each axis, in [1, 4]. 1.26 gives
   /// the paper's two integration points per node (section 3.2).
   float integrationCellsPerSpacing = 1.26f;
+  /// true: each point's shape-function derivatives are their average over its cell's
+  /// material, by the divergence theorem from the shape functions on the cell's surface
+  /// (smoothed strain, as in stabilized conforming nodal integration, Chen et al. 2001,
+  /// over the background cells). Faces two cells share cancel, so the interior passes the
+  /// patch test. Seed 004 cylinder, node spacing 0.01 / 0.0083 / 0.00625 m: slip ends
+  /// within 0.19 / 0.40 / 0.34 % of the closed form (the rest: the voxel volume, and the
+  /// end faces' second node layer, which feels the stress there as MLS is not
+  /// interpolating); bonded ends +6.0 / +1.5 / +2.4 % (final force), stiff like finite
+  /// elements of the coarsest size. Costs about 14 instead of n nodes per point and half
+  /// the critical step. false: the MLS derivatives at the point, as in the paper. These
+  /// fail the patch test (the n-nearest supports make the shape functions discontinuous,
+  /// so the derivatives do not sum to the surface integral of the shape function and a
+  /// uniform stress leaves interior nodes unbalanced): slip ends about 3 % soft at every
+  /// spacing (2.9 / 3.3 / 3.1 %), bonded +1.1 / +0.1 / -3.5 %, near the reference at the
+  /// coarse spacings only because that softness offsets the coarse model's stiffness.
+  bool smoothedStrain = true;
   /// Substep = timeStepSafety * the critical step of eq. 37, in (0, 1]. Eq. 37 is not a
-  /// bound here: the seed 004 cylinder (node spacing 0.01 m) ran at 0.6 of it and diverged
-  /// at 0.9; compressed ten times faster it is stable to 0.625 and fails at 0.656
-  /// (bench_stability; seed 004 found 1.34 on its own cylinder).
+  /// bound here: the seed 004 cylinder (node spacing 0.01 m) compressed ten times faster
+  /// is stable to 0.906 of it and fails at 0.938 with smoothed strain (bench_stability);
+  /// with the point derivatives it ran at 0.6 and diverged at 0.9, stable to 0.625 and
+  /// failing at 0.656 in the fast compression (seed 004 found 1.34 on its own cylinder).
   float timeStepSafety = 0.5f;
 };
 

@@ -28,11 +28,29 @@ struct HostParticles {
   size_t size() const { return x.size(); }
 };
 
-/// Background integration cells of one object (meshless solvers): a point in each cell
-/// that holds material and the volume of material it stands for [m^3].
+/// Background integration cells (meshless solvers): a point in each cell that holds
+/// material and the volume of material it stands for [m^3], and the closed surface of
+/// that material as quadrature points for the divergence theorem: cell p's are
+/// [surfaceStart[p], surfaceStart[p + 1]), each at surfacePoints[] with its area times the
+/// outward unit normal surfaceAreas[] [m^2]. A face two cells share is the same point in
+/// both, with opposite normals.
 struct IntegrationCells {
   std::vector<Vec3f> points;
   std::vector<float> volumes;
+  std::vector<uint32_t> surfaceStart{0};
+  std::vector<Vec3f> surfacePoints, surfaceAreas;
+
+  size_t size() const { return points.size(); }
+  /// Appends cell p of `from` after these cells.
+  void appendCell(const IntegrationCells& from, size_t p) {
+    points.push_back(from.points[p]);
+    volumes.push_back(from.volumes[p]);
+    for (uint32_t q = from.surfaceStart[p]; q < from.surfaceStart[p + 1]; ++q) {
+      surfacePoints.push_back(from.surfacePoints[q]);
+      surfaceAreas.push_back(from.surfaceAreas[q]);
+    }
+    surfaceStart.push_back((uint32_t)surfacePoints.size());
+  }
 };
 
 class SimBackend {

@@ -1,12 +1,14 @@
 #pragma once
 // MTLED: meshless Total Lagrangian explicit dynamics (Horton, Wittek, Joldes & Miller 2010;
 // seed 004 sections 2-3). The particles are the nodes; stress is evaluated at integration
-// points on a regular background grid (one point per cell holding material). Each
-// integration point interpolates the displacement from its n nearest nodes with moving
-// least squares (linear basis, quartic spline weight), whose derivatives at the reference
-// configuration are computed once (mtled_setup.cpp). Every substep, for each integration
-// point: F = I + sum_i u_i (x) grad phi_i, first Piola stress P = tau F^-T, nodal forces
-// V P grad phi_i; for each node the central-difference update with the lumped mass.
+// points on a regular background grid (one point per cell holding material). The
+// displacement is interpolated with moving least squares over the n nearest nodes (linear
+// basis, quartic spline weight); each point's derivatives at the reference configuration
+// are computed once (mtled_setup.cpp): the MLS derivatives at the point (the paper), or
+// their average over the cell's material (MtledSettings::smoothedStrain). Every
+// substep, for each integration point: F = I + sum_i u_i (x) grad phi_i over its nodes,
+// first Piola stress P = tau F^-T, nodal forces V P grad phi_i; for each node the
+// central-difference update with the lumped mass.
 // Boundary conditions come from the shapes: a node in a shape's contact band gets the
 // contact velocity of the grid contact (bonded: the shape's velocity, frictional: its
 // normal velocity while pressed on), and the momentum that takes is the shape's impulse.
@@ -29,60 +31,68 @@ namespace mpm {
 /// The static model MTLED precomputes from the nodes and integration cells (host side).
 struct MtledModel {
   int supportNodes = 0;                ///< n
-  std::vector<uint32_t> support;       ///< [point * n + k]: node index
-  std::vector<Vec3f> shapeGradients;   ///< [point * n + k]: d phi_k / d X at the point [1/m]
+  /// Point p's terms are [termStart[p], termStart[p + 1]): the nodes its strain depends on
+  /// (its n nearest, or with smoothed strain those of its cell's surface points).
+  std::vector<uint32_t> termStart;
+  std::vector<uint32_t> support;       ///< [term]: node index
+  std::vector<Vec3f> shapeGradients;   ///< [term]: d phi / d X of that node at the point [1/m]
   std::vector<float> volumes;          ///< per point [m^3]
   std::vector<uint32_t> pointObject;   ///< per point: object slot (its material)
-  std::vector<float> nodeMass;         ///< lumped: each point's mass split evenly over its n nodes [kg]
+  std::vector<float> nodeMass;         ///< lumped: each point's mass split evenly over its n nearest nodes [kg]
   std::vector<float> nodeVolume;       ///< likewise, the volume [m^3]
   /// Per node: itself, or for a node dropped for lying in fewer than two support domains
   /// the nearest kept node, whose displacement it follows.
   std::vector<uint32_t> carrier;
   /// Incidence list: node i's force terms are forceTerms[forceStart[i] .. forceStart[i+1]),
-  /// each an index point * n + k.
+  /// each a term index.
   std::vector<uint32_t> forceStart, forceTerms;
   float criticalTimeStep = 0;  ///< eq. 37 over all points [s]
   size_t droppedNodes = 0;
 };
 
 /// Builds the model (seed 004 section 2.1, preprocessing steps 3-4, and section 3.3):
-/// n nearest nodes and MLS shape-function derivatives per point, lumped masses, removal
-/// of nodes in fewer than two support domains (repeated until none is left), the
-/// critical step. Throws Error if a point's moment matrix is singular.
+/// n nearest nodes (support domains) and shape-function derivatives per point, lumped
+/// masses, removal of nodes in fewer than two support domains (repeated until none is
+/// left), the critical step. Throws Error if a moment matrix is singular.
 MtledModel buildMtledModel(const MtledSettings& settings, const std::vector<Vec3f>& X,
-                           const std::vector<uint32_t>& nodeObject, const std::vector<Vec3f>& points,
-                           const std::vector<float>& volumes, const std::vector<uint32_t>& pointObject,
-                           const std::vector<MaterialParams>& materials);
+                           const std::vector<uint32_t>& nodeObject, const IntegrationCells& cells,
+                           const std::vector<uint32_t>& pointObject, const std::vector<MaterialParams>& materials);
 
-/// Integration cells over the box [lo, hi] (cells of about `cellSize`, fitted to the box):
-/// each cell that holds material per `inside` gives one point, at the centroid of its
-/// material part, with the volume of that part (both from 4^3 samples per cell). Cells cut
-/// by a curved surface thus keep the volume they hold instead of all or nothing.
+/// Integration cells over the box [lo, hi] (cells of about `cellSize`, fitted to the box),
+/// from 4^3 voxels per cell each inside or not per `inside` at its centre: each cell that
+/// holds material gives one point, at the centroid of its inside voxels, with their volume
+/// (cells cut by a curved surface keep the volume they hold instead of all or nothing),
+/// and the surface of those voxels as quadrature points.
 IntegrationCells integrationCells(const std::function<bool(Vec3f)>& inside, Vec3f lo, Vec3f hi,
                                   float cellSize);
 
 namespace kernels {
 
+/// F = I + sum (x - X) grad phi over point p's terms (nodes now at x, at X in the reference).
+MPM_HD Mat3f pointDeformationGradient(size_t p, const Vec3f* x, const Vec3f* X, const uint32_t* termStart,
+                                      const uint32_t* support, const Vec3f* gradients) {
+  Mat3f F = Mat3f::identity();
+  for (uint32_t t = termStart[p]; t < termStart[p + 1]; ++t) F = F + outer(x[support[t]] - X[support[t]], gradients[t]);
+  return F;
+}
+
 /// Per integration point: deformation gradient from the nodal displacements, stress, and
-/// the internal force V P grad phi_k on each of its n nodes.
+/// the internal force V P grad phi on each of its terms' nodes.
 struct MtledInternalForce {
   const Vec3f* x;
   const Vec3f* X;
+  const uint32_t* termStart;
   const uint32_t* support;
   const Vec3f* gradients;
   const float* volumes;
   const uint32_t* pointObject;
   const MaterialParams* materials;
-  int n;
   Vec3f* forces;
   MPM_HD void operator()(size_t p) const {
-    const uint32_t* nodes = support + p * n;
-    const Vec3f* g = gradients + p * n;
-    Mat3f F = Mat3f::identity();
-    for (int k = 0; k < n; ++k) F = F + outer(x[nodes[k]] - X[nodes[k]], g[k]);
+    const Mat3f F = pointDeformationGradient(p, x, X, termStart, support, gradients);
     const Mat3f tau = kirchhoffStress(materials[pointObject[p]], F);
     const Mat3f P = tau * transpose(inverse(F));  // first Piola-Kirchhoff
-    for (int k = 0; k < n; ++k) forces[p * n + k] = volumes[p] * (P * g[k]);
+    for (uint32_t t = termStart[p]; t < termStart[p + 1]; ++t) forces[t] = volumes[p] * (P * gradients[t]);
   }
 };
 
@@ -182,7 +192,7 @@ class MtledSystem final : public ShapeBackend<Exec> {
   explicit MtledSystem(const MtledSettings& settings, Args&&... execArgs)
       : ShapeBackend<Exec>(exec_), exec_(std::forward<Args>(execArgs)...), settings_(settings) {
     for (auto* a : {&x_, &v_, &X_}) a->bind(&exec_);
-    for (auto* a : {&carrier_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
+    for (auto* a : {&carrier_, &termStart_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
     mass_.bind(&exec_);
     volumes_.bind(&exec_);
     gradients_.bind(&exec_);
@@ -201,9 +211,8 @@ class MtledSystem final : public ShapeBackend<Exec> {
   }
 
   void appendIntegrationCells(uint32_t slot, const IntegrationCells& cells) override {
-    points_.insert(points_.end(), cells.points.begin(), cells.points.end());
-    pointVolumes_.insert(pointVolumes_.end(), cells.volumes.begin(), cells.volumes.end());
-    pointSlot_.insert(pointSlot_.end(), cells.points.size(), slot);
+    for (size_t p = 0; p < cells.size(); ++p) cells_.appendCell(cells, p);
+    pointSlot_.insert(pointSlot_.end(), cells.size(), slot);
     dirty_ = true;
   }
 
@@ -222,14 +231,12 @@ class MtledSystem final : public ShapeBackend<Exec> {
     reference_ = std::move(keptX);
     IntegrationCells keptCells;
     std::vector<uint32_t> keptObject;
-    for (size_t p = 0; p < points_.size(); ++p) {
+    for (size_t p = 0; p < cells_.size(); ++p) {
       if (!keep[pointSlot_[p]]) continue;
-      keptCells.points.push_back(points_[p]);
-      keptCells.volumes.push_back(pointVolumes_[p]);
+      keptCells.appendCell(cells_, p);
       keptObject.push_back(pointSlot_[p]);
     }
-    points_ = std::move(keptCells.points);
-    pointVolumes_ = std::move(keptCells.volumes);
+    cells_ = std::move(keptCells);
     pointSlot_ = std::move(keptObject);
     dirty_ = true;
   }
@@ -256,17 +263,16 @@ class MtledSystem final : public ShapeBackend<Exec> {
 
   void substep(const SubstepParams& s) override {
     prepare();
-    const size_t nNodes = nodes_.size(), nPoints = points_.size();
+    const size_t nNodes = nodes_.size(), nPoints = cells_.size();
     if (nNodes == 0) return;
-    const int n = model_.supportNodes;
     auto t0 = Clock::now();
     shapes_.place(0.f);  // nodes are tested at their own positions: no cell margin
     timings.contact += seconds(t0);
 
     t0 = Clock::now();
-    exec_.forEach(nPoints, kernels::MtledInternalForce{x_.data(), X_.data(), support_.data(), gradients_.data(),
-                                                        volumes_.data(), pointObject_.data(), materials_.data(),
-                                                        n, forces_.data()});
+    exec_.forEach(nPoints, kernels::MtledInternalForce{x_.data(), X_.data(), termStart_.data(), support_.data(),
+                                                        gradients_.data(), volumes_.data(), pointObject_.data(),
+                                                        materials_.data(), forces_.data()});
     timings.p2g += seconds(t0);
     t0 = Clock::now();
     exec_.forEach(nNodes, kernels::MtledAccelerate{v_.data(), mass_.data(), carrier_.data(), forceStart_.data(),
@@ -326,14 +332,10 @@ class MtledSystem final : public ShapeBackend<Exec> {
   /// kernel forms it: the energy whose gradient the forces are (energy balance, section 4.7).
   double integrationPointEnergy(const HostParticles& state) const override {
     if (dirty_) return 0.0;  // no step since the nodes changed: they are at their reference
-    const int n = model_.supportNodes;
     double energy = 0;
     for (size_t p = 0; p < model_.volumes.size(); ++p) {
-      Mat3f F = Mat3f::identity();
-      for (int k = 0; k < n; ++k) {
-        const uint32_t node = model_.support[p * n + k];
-        F = F + outer(state.x[node] - reference_[node], model_.shapeGradients[p * n + k]);
-      }
+      const Mat3f F = kernels::pointDeformationGradient(p, state.x.data(), reference_.data(), model_.termStart.data(),
+                                                        model_.support.data(), model_.shapeGradients.data());
       energy += (double)model_.volumes[p] * strainEnergyDensity(materialTable_[model_.pointObject[p]], F);
     }
     return energy;
@@ -342,7 +344,8 @@ class MtledSystem final : public ShapeBackend<Exec> {
   size_t particleCount() const override { return nodes_.size(); }
   size_t activeBlocks() const override { return 0; }  // no grid
   size_t memoryBytes() const override {
-    return x_.bytes() + v_.bytes() + X_.bytes() + mass_.bytes() + carrier_.bytes() + support_.bytes() +
+    return x_.bytes() + v_.bytes() + X_.bytes() + mass_.bytes() + carrier_.bytes() + termStart_.bytes() +
+           support_.bytes() +
            gradients_.bytes() + volumes_.bytes() + pointObject_.bytes() + forceStart_.bytes() +
            forceTerms_.bytes() + forces_.bytes() + materials_.bytes() + nodeSums_.bytes() + shapes_.memoryBytes();
   }
@@ -370,8 +373,7 @@ class MtledSystem final : public ShapeBackend<Exec> {
   void prepare() {
     if (!dirty_) return;
     const auto t0 = Clock::now();
-    model_ = buildMtledModel(settings_, reference_, nodes_.object, points_, pointVolumes_, pointSlot_,
-                             materialTable_);
+    model_ = buildMtledModel(settings_, reference_, nodes_.object, cells_, pointSlot_, materialTable_);
     // the lumped masses replace the lattice's, so summaries report the mass MTLED moves
     nodes_.mass = model_.nodeMass;
     nodes_.volume0 = model_.nodeVolume;
@@ -380,6 +382,7 @@ class MtledSystem final : public ShapeBackend<Exec> {
     upload(X_, reference_);
     upload(mass_, model_.nodeMass);
     upload(carrier_, model_.carrier);
+    upload(termStart_, model_.termStart);
     upload(support_, model_.support);
     upload(gradients_, model_.shapeGradients);
     upload(volumes_, model_.volumes);
@@ -407,8 +410,7 @@ class MtledSystem final : public ShapeBackend<Exec> {
   // positions, integration cells, materials; the model built from them
   HostParticles nodes_;
   std::vector<Vec3f> reference_;
-  std::vector<Vec3f> points_;
-  std::vector<float> pointVolumes_;
+  IntegrationCells cells_;
   std::vector<uint32_t> pointSlot_;
   std::vector<MaterialParams> materialTable_;
   MtledModel model_;
@@ -416,7 +418,7 @@ class MtledSystem final : public ShapeBackend<Exec> {
   // Exec side: the dynamic state and the model the kernels read
   ExecArray<Vec3f, Exec> x_, v_, X_;
   ExecArray<float, Exec> mass_, volumes_;
-  ExecArray<uint32_t, Exec> carrier_, support_, pointObject_, forceStart_, forceTerms_;
+  ExecArray<uint32_t, Exec> carrier_, termStart_, support_, pointObject_, forceStart_, forceTerms_;
   ExecArray<Vec3f, Exec> gradients_, forces_;
   ExecArray<MaterialParams, Exec> materials_;
   ExecArray<ContactSums, Exec> nodeSums_;
