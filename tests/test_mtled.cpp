@@ -1,179 +1,90 @@
 // MTLED (SolverType::Mtled) against the seed 004 cylinder: 20 % compression of a decoupled
 // Neo-Hookean cylinder between two plates over T = 3 s with the smooth ramp of eq. 43,
-// compared with the CalculiX references in tests/reference (see its README). Axis along y
-// (the library's up axis), no gravity. The plates are kinematic box shapes; the force is
-// the impulse the nodes gave the top plate over a frame, divided by the frame.
+// compared with the CalculiX references in tests/reference (see its README). The scene is
+// scenes::SeedCylinder (axis along y, no gravity, kinematic box plates; the force is the
+// impulse the nodes gave the top plate over a frame, divided by the frame).
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "mpm/scene.h"
+#include "scenes/standard_scenes.h"
 #include "settings_checks.h"
 #include "test_paths.h"
 
 namespace mpm {
 namespace {
 
-constexpr double kRadius = 0.05, kHeight = 0.1, kCompression = 0.02, kRampTime = 3.0;
-constexpr double kMu = 1007.0, kBulk = 50001.333, kDensity = 1000.0;  // reference README
+using scenes::SeedCylinder;
+constexpr double kRampTime = SeedCylinder::kRampTime;
 
-/// Plate displacement of eq. 43: u(t) = D (10 - 15 s + 6 s^2) s^3, s = t / T.
-double ramp(double t) {
-  const double s = std::min(std::max(t / kRampTime, 0.0), 1.0);
-  return kCompression * (10 - 15 * s + 6 * s * s) * s * s * s;
-}
-
-/// Columns of a reference CSV ('#' lines are comments, one header line).
+/// Columns of a reference CSV in tests/reference.
 std::vector<std::vector<double>> readCsv(const std::string& name) {
-  std::ifstream in(test::referencePath(name));
-  EXPECT_TRUE(in.good()) << "cannot open " << test::referencePath(name);
-  std::vector<std::vector<double>> columns;
-  std::string line;
-  bool header = true;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    if (header) {
-      header = false;
-      continue;
-    }
-    std::stringstream s(line);
-    std::string cell;
-    for (size_t c = 0; std::getline(s, cell, ','); ++c) {
-      if (columns.size() <= c) columns.emplace_back();
-      columns[c].push_back(std::stod(cell));
-    }
-  }
-  return columns;
+  return SeedCylinder::readCsv(test::referencePath(name));
 }
-
-struct CylinderRun {
-  std::vector<double> time, force;  ///< force on the cylinder from the top plate [N] (negative: compression)
-  size_t nodes = 0;
-  float substepDt = 0;
-  double seconds = 0;
-};
 
 /// Runs the compression with nodes `spacing` apart; forces sampled at the reference times
 /// 0.1 s, 0.2 s, ... (each the mean over a frame centred on the time, so the mean is the
 /// value at the sample to second order).
-CylinderRun compressCylinder(float spacing, ContactMode ends) {
-  SceneSettings s;
-  s.domain = {{-0.1f, -0.05f, -0.1f}, {0.1f, 0.15f, 0.1f}};
-  s.domain.walls = false;
-  s.dx = 0.01f;
-  s.gravity = {0.f, 0.f, 0.f};
-  s.solver = SolverType::Mtled;
-  s.backend = Backend::Cpu;
-  Scene scene(s);
-
-  ParticleObjectDesc cyl;
-  cyl.primitive = PrimitiveType::Cylinder;
-  cyl.center = {0.f, (float)kHeight / 2, 0.f};
-  cyl.radius = (float)kRadius;
-  cyl.halfExtents = {0.f, (float)kHeight / 2, 0.f};
-  cyl.particleSpacing = spacing;
-  // E and nu from mu and K exactly (the rounded nu = 0.48999 would shift K by 0.07 %)
-  cyl.material = {MaterialModel::NeoHookeanDecoupled, (float)(9 * kBulk * kMu / (3 * kBulk + kMu)),
-                  (float)((3 * kBulk - 2 * kMu) / (2 * (3 * kBulk + kMu))), (float)kDensity};
-  const ParticleObjectId id = scene.addParticleObject(cyl);
-
-  // plates wider than the bulged cylinder; nodes on the end faces lie in the band
-  const float thick = 0.02f;
-  ShapeDesc plate;
-  Geometry box;
-  box.type = GeometryType::Box;
-  box.halfExtents = {0.1f, thick, 0.1f};
-  plate.parts = {box};
-  plate.contact.mode = ends;
-  plate.contact.friction = 0.f;
-  plate.contact.band = 0.1f * spacing;
-  plate.pose.position = {0.f, -thick, 0.f};
-  scene.addShape(plate);
-  plate.pose.position = {0.f, (float)kHeight + thick, 0.f};
-  const ShapeId top = scene.addShape(plate);
-
-  CylinderRun run;
-  run.nodes = scene.particleCount(id);
-  const double frame = 0.01, sample = 0.1;
-  const auto t0 = std::chrono::steady_clock::now();
-  double t = 0;
-  // frames [0, f/2], then [k f - f/2, k f + f/2]: every 10th is centred on a sample time,
-  // the last on T
-  for (int k = 0; t < kRampTime; ++k) {
-    const double t1 = k == 0 ? frame / 2 : t + frame;
-    ShapeState st;
-    st.pose.position = {0.f, (float)(kHeight + thick - ramp(t)), 0.f};
-    st.linearVelocity = {0.f, (float)(-(ramp(t1) - ramp(t)) / (t1 - t)), 0.f};
-    scene.setShapeState(top, st);
-    const StepReport r = scene.step((float)(t1 - t));
-    run.substepDt = r.substepDt;
-    const double mid = 0.5 * (t + t1);
-    if (std::abs(mid / sample - std::round(mid / sample)) < 1e-6 && mid > 1e-6) {
-      run.time.push_back(mid);
-      // the plate receives +impulse; the force on the cylinder is its opposite
-      run.force.push_back(-scene.shapeImpulse(top).linear.y / (t1 - t));
-    }
-    t = t1;
-  }
-  run.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return run;
+SeedCylinder::Run compressCylinder(float spacing, ContactMode ends) {
+  SeedCylinder::Setup setup;
+  setup.solver = SolverType::Mtled;
+  setup.resolution = spacing;
+  setup.ends = ends;
+  return SeedCylinder::run(setup, SeedCylinder::Loading::Compression, 0.01, 0.1);
 }
 
 /// Reference value at time t (the CSVs are tabulated every 0.1 s).
 double at(const std::vector<double>& times, const std::vector<double>& values, double t) {
-  for (size_t i = 0; i < times.size(); ++i)
-    if (std::abs(times[i] - t) < 1e-6) return values[i];
-  ADD_FAILURE() << "no reference value at t = " << t;
-  return 0;
+  const double v = SeedCylinder::at(times, values, t);
+  if (std::isnan(v)) ADD_FAILURE() << "no reference value at t = " << t;
+  return std::isnan(v) ? 0 : v;
 }
 
 TEST(Mtled, SlipCompressionFollowsTheHomogeneousSolution) {
   const auto ref = readCsv("cylinder_compression_slip.csv");  // t, FE force, closed-form force
-  const CylinderRun run = compressCylinder(0.01f, ContactMode::Frictional);
+  const SeedCylinder::Run run = compressCylinder(0.01f, ContactMode::Frictional);
   ASSERT_FALSE(run.time.empty());
   const double finalRef = at(ref[0], ref[2], kRampTime);
   double worst = 0;
   for (size_t i = 0; i < run.time.size(); ++i) {
     const double expected = at(ref[0], ref[2], run.time[i]);
     // relative to the final force: early samples are small and carry the wave noise
-    worst = std::max(worst, std::abs(run.force[i] - expected) / std::abs(finalRef));
-    std::printf("  t = %.1f s  F = %.5f N  closed form %.5f N  (%.2f %%)\n", run.time[i], run.force[i], expected,
-                100 * (run.force[i] - expected) / std::abs(expected));
+    worst = std::max(worst, std::abs(run.axialForce[i] - expected) / std::abs(finalRef));
+    std::printf("  t = %.1f s  F = %.5f N  closed form %.5f N  (%.2f %%)\n", run.time[i], run.axialForce[i], expected,
+                100 * (run.axialForce[i] - expected) / std::abs(expected));
   }
-  std::printf("slip: %zu nodes, substep %.3g s, %.1f s; largest deviation %.2f %% of the final force\n", run.nodes,
-              run.substepDt, run.seconds, 100 * worst);
+  std::printf("slip: %zu nodes, substep %.3g s, %.1f s; largest deviation %.2f %% of the final force\n", run.particles,
+              run.substepDt, run.wallSeconds, 100 * worst);
   // The goal is 1 %; measured 2.9 % (soft) at the paper's two integration points per node,
   // the same at spacing 0.00625 m: the error is the background integration's (the n-nearest
   // MLS derivatives do not integrate to zero over interior nodes), which does not shrink
   // with the spacing at a fixed cells-per-spacing ratio, and is not monotonic in that ratio
   // (1: -4.3 %, 1.5: -1.3 %, 2: +2.2 %, 3: +0.1 %, 4: +1.5 %). Bounded here at what is
   // achieved, so a regression shows.
-  EXPECT_LT(std::abs(run.force.back() - finalRef) / std::abs(finalRef), 0.035);
+  EXPECT_LT(std::abs(run.axialForce.back() - finalRef) / std::abs(finalRef), 0.035);
   EXPECT_LT(worst, 0.035);
 }
 
 TEST(Mtled, BondedCompressionMatchesTheFiniteElementReference) {
   const auto ref = readCsv("cylinder_compression_extrapolated.csv");
-  const CylinderRun run = compressCylinder(0.01f, ContactMode::Bonded);
+  const SeedCylinder::Run run = compressCylinder(0.01f, ContactMode::Bonded);
   ASSERT_FALSE(run.time.empty());
   double diff2 = 0, ref2 = 0;
   for (size_t i = 0; i < run.time.size(); ++i) {
     const double expected = at(ref[0], ref[1], run.time[i]);
-    diff2 += (run.force[i] - expected) * (run.force[i] - expected);
+    diff2 += (run.axialForce[i] - expected) * (run.axialForce[i] - expected);
     ref2 += expected * expected;
-    std::printf("  t = %.1f s  F = %.5f N  reference %.5f N  (%.2f %%)\n", run.time[i], run.force[i], expected,
-                100 * (run.force[i] - expected) / std::abs(expected));
+    std::printf("  t = %.1f s  F = %.5f N  reference %.5f N  (%.2f %%)\n", run.time[i], run.axialForce[i], expected,
+                100 * (run.axialForce[i] - expected) / std::abs(expected));
   }
   const double finalRef = at(ref[0], ref[1], kRampTime);
-  const double finalError = std::abs(run.force.back() - finalRef) / std::abs(finalRef);
+  const double finalError = std::abs(run.axialForce.back() - finalRef) / std::abs(finalRef);
   const double curveError = std::sqrt(diff2 / ref2);
   std::printf("bonded: %zu nodes, substep %.3g s, %.1f s; final %.4f N vs %.4f N (%.2f %%), curve L2 %.2f %%\n",
-              run.nodes, run.substepDt, run.seconds, run.force.back(), finalRef, 100 * finalError,
+              run.particles, run.substepDt, run.wallSeconds, run.axialForce.back(), finalRef, 100 * finalError,
               100 * curveError);
   EXPECT_LT(finalError, 0.03);
   EXPECT_LT(curveError, 0.05);
