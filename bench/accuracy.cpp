@@ -86,6 +86,24 @@ struct Row {
   double finalError = std::nan("");  ///< F(T) / F_ref(T) - 1
   double referenceFinal = std::nan("");
   double finalAxial() const { return run.axialForce.empty() ? std::nan("") : run.axialForce.back(); }
+  /// Index of the sample of largest |force| in `f`; -1 if none.
+  static int peak(const std::vector<double>& f) {
+    int best = -1;
+    for (size_t i = 0; i < f.size(); ++i)
+      if (best < 0 || std::abs(f[i]) > std::abs(f[best])) best = (int)i;
+    return best;
+  }
+  /// First sample time after the peak where |F| fell below 1 % of the peak (the plate let
+  /// go of the material); NaN if it never did.
+  double letGo(const std::vector<double>& f) const {
+    const int p = peak(f);
+    if (p < 0) return std::nan("");
+    for (size_t i = p; i < f.size(); ++i)
+      if (std::abs(f[i]) < 0.01 * std::abs(f[p])) return run.time[i];
+    return std::nan("");
+  }
+  double peakValue(const std::vector<double>& f) const { const int p = peak(f); return p < 0 ? std::nan("") : f[p]; }
+  double peakTime(const std::vector<double>& f) const { const int p = peak(f); return p < 0 ? std::nan("") : run.time[p]; }
   double finalShear() const { return run.shearForce.empty() ? std::nan("") : run.shearForce.back(); }
   double wallPerSimulated() const { return run.simulated > 0 ? run.wallSeconds / run.simulated : std::nan(""); }
 };
@@ -167,16 +185,24 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   }
   m << "\n## Extension and shear (no reference)\n\n"
        "| solver | case | resolution [cm] | particles / nodes | substeps | wall [s] | CPU [s] | wall / sim s |"
-       " axial F(3 s) [N] | shear F(3 s) [N] |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+       " axial F(3 s) [N] | shear F(3 s) [N] | largest axial F [N] (at t [s]) | largest shear F [N] (at t [s]) |"
+       " force lost at t [s] |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
   for (const Row& r : rows) {
     if (r.caseName.rfind("compression", 0) == 0) continue;
     m << "| " << r.solver << " | " << r.caseName << " | " << num(r.resolution, 2) << " | " << r.run.particles << " | "
       << r.run.substeps << " | " << num(r.run.wallSeconds, 1) << " | " << num(r.run.cpuSeconds, 1) << " | "
       << num(r.wallPerSimulated(), 2) << " | " << (r.ok ? num(r.finalAxial(), 4) : "**failed**") << " | "
-      << num(r.finalShear(), 4) << " |\n";
+      << num(r.finalShear(), 4) << " | " << num(r.peakValue(r.run.axialForce), 4) << " ("
+      << num(r.peakTime(r.run.axialForce), 1) << ") | " << num(r.peakValue(r.run.shearForce), 4) << " ("
+      << num(r.peakTime(r.run.shearForce), 1) << ") | ";
+    const bool shear = r.caseName.rfind("shear", 0) == 0;
+    const double lost = r.letGo(shear ? r.run.shearForce : r.run.axialForce);
+    m << (std::isnan(lost) ? "held" : num(lost, 1)) << " |\n";
   }
-  m << "\nAxial force: y, negative pulls the cylinder together (compression); shear force: x, the force the top"
-       " plate applies to the cylinder along its motion.\n";
+  m << "\nForces are those the top plate applies to the cylinder. Axial: y, negative pushes it down"
+       " (compression), positive pulls it up (extension). Shear: x, positive along the plate's motion. *Force lost*:"
+       " the first sample after the largest force (axial for extension, shear for shear) where it is below 1 % of"
+       " that largest: the plate has let go of the material; *held*: it never did.\n";
   bool failures = false;
   for (const Row& r : rows) failures |= !r.ok;
   if (failures) {
@@ -187,19 +213,25 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   return m.str();
 }
 
+/// A CSV cell: empty for NaN.
+std::string csvNum(double v, int decimals) { return std::isnan(v) ? "" : num(v, decimals); }
+
 std::string csvTable(const std::vector<Row>& rows) {
   std::ostringstream t;
   t << "solver,case,resolution_cm,particles,substeps,substep_s,wall_s,cpu_s,simulated_s,wall_per_sim_s,ok,"
-       "l2_error,final_error,final_axial_N,final_shear_N,reference_final_N\n";
+       "l2_error,final_error,final_axial_N,final_shear_N,reference_final_N,peak_axial_N,peak_axial_t_s,peak_shear_N,"
+       "peak_shear_t_s\n";
   for (const Row& r : rows)
     t << r.solver << ',' << r.caseName << ',' << num(r.resolution, 2) << ',' << r.run.particles << ','
       << r.run.substeps << ',' << r.run.substepDt << ',' << num(r.run.wallSeconds, 3) << ','
-      << num(r.run.cpuSeconds, 3) << ',' << num(r.run.simulated, 3) << ',' << num(r.wallPerSimulated(), 4) << ','
-      << (r.ok ? 1 : 0) << ',' << (std::isnan(r.l2Error) ? "" : num(r.l2Error, 5)) << ','
-      << (std::isnan(r.finalError) ? "" : num(r.finalError, 5)) << ','
-      << (std::isnan(r.finalAxial()) ? "" : num(r.finalAxial(), 5)) << ','
-      << (std::isnan(r.finalShear()) ? "" : num(r.finalShear(), 5)) << ','
-      << (std::isnan(r.referenceFinal) ? "" : num(r.referenceFinal, 5)) << '\n';
+      << num(r.run.cpuSeconds, 3) << ',' << num(r.run.simulated, 3) << ',' << csvNum(r.wallPerSimulated(), 4) << ','
+      << (r.ok ? 1 : 0) << ',' << csvNum(r.l2Error, 5) << ','
+      << csvNum(r.finalError, 5) << ','
+      << csvNum(r.finalAxial(), 5) << ','
+      << csvNum(r.finalShear(), 5) << ','
+      << csvNum(r.referenceFinal, 5) << ',' << csvNum(r.peakValue(r.run.axialForce), 5)
+      << ',' << csvNum(r.peakTime(r.run.axialForce), 2) << ',' << csvNum(r.peakValue(r.run.shearForce), 5) << ','
+      << csvNum(r.peakTime(r.run.shearForce), 2) << '\n';
   return t.str();
 }
 
@@ -255,10 +287,13 @@ int main(int argc, char** argv) {
                                {".csv", csvTable(rows)},
                                {"_curves.csv", curvesTable(rows)}});
   };
-  // coarse rows of every solver and case first, so a stopped study still covers them all
+  // the compression cases (the ones with a reference) first, then extension and shear; in each
+  // group the coarse rows of every solver and case first, so a stopped study covers them
+  for (const bool compression : {true, false})
   for (const double resolution : opt.resolutions)
     for (const std::string& caseName : opt.cases)
       for (const std::string& solver : opt.solvers) {
+        if ((caseName.rfind("compression", 0) == 0) != compression) continue;
         std::fprintf(stderr, "%s, %s, %.2f cm ...\n", solver.c_str(), caseName.c_str(), resolution);
         Row r = runOne(opt, solver, makeCase(caseName), resolution);
         std::fprintf(stderr, "%s, %s, %.2f cm: %zu particles, %lld substeps, wall %.1f s, CPU %.1f s; L2 %s, final %s,"
