@@ -43,7 +43,10 @@ const std::vector<std::string> kCaseNames{"compression-bonded", "compression-sli
 struct Options {
   std::vector<std::string> solvers = kSolverNames;
   std::vector<std::string> cases = kCaseNames;
-  std::vector<double> resolutions{1.0, 0.7, 0.5};  ///< MPM dx and MTLED node spacing [cm]
+  /// H / dx: cells (MPM) or node intervals (MTLED) over the height; 10, 14, 20 are
+  /// dx = 1, 0.714, 0.5 cm. Whole numbers keep both plate faces on node layers and the
+  /// particle lattice (dx / 2) filling the height exactly.
+  std::vector<int> resolutions{10, 14, 20};
   bool quick = false;                              ///< the coarsest resolution only
   int threads = 1;
   double frame = 0.01;  ///< [s]; the forces are sampled every 0.1 s
@@ -122,7 +125,8 @@ void compare(Row& row, const std::vector<std::vector<double>>& ref, int column) 
   row.finalError = row.finalAxial() / row.referenceFinal - 1;
 }
 
-Row runOne(const Options& opt, const std::string& solver, const Case& c, double resolutionCm) {
+Row runOne(const Options& opt, const std::string& solver, const Case& c, int cellsOverHeight) {
+  const double resolutionCm = 100 * SeedCylinder::kHeight / cellsOverHeight;
   Row row;
   row.solver = solver;
   row.caseName = c.name;
@@ -159,7 +163,8 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " (nu = 0.49), rho = 1000 kg/m^3, no gravity, between two kinematic box plates (Bonded contact; slip ends:"
        " Frictional, friction 0). The top plate follows u(t) = D (10 − 15 s + 6 s²) s³, s = t / T, T = 3 s,"
        " D = 2 cm (20 % of H): down (compression), up (extension) or sideways along x (shear). MPM solvers: grid"
-       " cell dx = the resolution, 8 particles per cell, substeps by the CFL policy (0.3 dx / (c_p + speed));"
+       " cell dx = the resolution, 8 particles per cell (H / dx = 10, 14, 20 for 1, 0.714, 0.5 cm: whole cells, so both"
+       " plate faces lie on node layers and the particle lattice fills the height exactly), substeps by the CFL policy (0.3 dx / (c_p + speed));"
        " PB-MPM: 10 iterations, its step bound by the particle and plate speed only (one step per frame here), so"
        " its stiffness depends on the frame. MTLED: node spacing = the resolution, substep 0.5 of eq. 37; end nodes"
        " held by a band of a tenth of the spacing. Frames of "
@@ -178,7 +183,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " L2 error | final error | F(3 s) [N] |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Row& r : rows) {
     if (r.caseName.rfind("compression", 0) != 0) continue;
-    m << "| " << r.solver << " | " << r.caseName << " | " << num(r.resolution, 2) << " | " << r.run.particles << " | "
+    m << "| " << r.solver << " | " << r.caseName << " | " << num(r.resolution, 3) << " | " << r.run.particles << " | "
       << r.run.substeps << " | " << num(r.run.wallSeconds, 1) << " | " << num(r.run.cpuSeconds, 1) << " | "
       << num(r.wallPerSimulated(), 2) << " | " << (r.ok ? pct(r.l2Error) : "**failed**") << " | "
       << pct(r.finalError) << " | " << num(r.finalAxial(), 4) << " |\n";
@@ -189,7 +194,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " force lost at t [s] |\n|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
   for (const Row& r : rows) {
     if (r.caseName.rfind("compression", 0) == 0) continue;
-    m << "| " << r.solver << " | " << r.caseName << " | " << num(r.resolution, 2) << " | " << r.run.particles << " | "
+    m << "| " << r.solver << " | " << r.caseName << " | " << num(r.resolution, 3) << " | " << r.run.particles << " | "
       << r.run.substeps << " | " << num(r.run.wallSeconds, 1) << " | " << num(r.run.cpuSeconds, 1) << " | "
       << num(r.wallPerSimulated(), 2) << " | " << (r.ok ? num(r.finalAxial(), 4) : "**failed**") << " | "
       << num(r.finalShear(), 4) << " | " << num(r.peakValue(r.run.axialForce), 4) << " ("
@@ -208,7 +213,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   if (failures) {
     m << "\n## Failed runs\n\n";
     for (const Row& r : rows)
-      if (!r.ok) m << "- " << r.solver << ", " << r.caseName << ", " << num(r.resolution, 2) << " cm: " << r.message << "\n";
+      if (!r.ok) m << "- " << r.solver << ", " << r.caseName << ", " << num(r.resolution, 3) << " cm: " << r.message << "\n";
   }
   return m.str();
 }
@@ -222,7 +227,7 @@ std::string csvTable(const std::vector<Row>& rows) {
        "l2_error,final_error,final_axial_N,final_shear_N,reference_final_N,peak_axial_N,peak_axial_t_s,peak_shear_N,"
        "peak_shear_t_s\n";
   for (const Row& r : rows)
-    t << r.solver << ',' << r.caseName << ',' << num(r.resolution, 2) << ',' << r.run.particles << ','
+    t << r.solver << ',' << r.caseName << ',' << num(r.resolution, 4) << ',' << r.run.particles << ','
       << r.run.substeps << ',' << r.run.substepDt << ',' << num(r.run.wallSeconds, 3) << ','
       << num(r.run.cpuSeconds, 3) << ',' << num(r.run.simulated, 3) << ',' << csvNum(r.wallPerSimulated(), 4) << ','
       << (r.ok ? 1 : 0) << ',' << csvNum(r.l2Error, 5) << ','
@@ -240,7 +245,7 @@ std::string curvesTable(const std::vector<Row>& rows) {
   t << "solver,case,resolution_cm,t_s,axial_N,shear_N\n";
   for (const Row& r : rows)
     for (size_t i = 0; i < r.run.time.size(); ++i)
-      t << r.solver << ',' << r.caseName << ',' << num(r.resolution, 2) << ',' << num(r.run.time[i], 3) << ','
+      t << r.solver << ',' << r.caseName << ',' << num(r.resolution, 4) << ',' << num(r.run.time[i], 3) << ','
         << num(r.run.axialForce[i], 6) << ',' << num(r.run.shearForce[i], 6) << '\n';
   return t.str();
 }
@@ -258,9 +263,10 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->check(CLI::IsMember(kCaseNames))
       ->capture_default_str();
-  app.add_option("--resolutions", opt.resolutions, "MPM cell size and MTLED node spacing [cm], one row each")
+  app.add_option("--resolutions", opt.resolutions,
+                 "H / dx (MPM cells or MTLED node intervals over the 10 cm height), one row each")
       ->delimiter(',')
-      ->check(CLI::Range(0.2, 1.0))
+      ->check(CLI::Range(4, 40))
       ->capture_default_str();
   app.add_flag("--quick", opt.quick, "the coarsest resolution only (a smoke run)");
   app.add_option("--threads", opt.threads, "CPU threads per run; 0 = all")->check(CLI::NonNegativeNumber)->capture_default_str();
@@ -275,8 +281,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (opt.quick) {
-    double coarsest = 0;
-    for (double r : opt.resolutions) coarsest = std::max(coarsest, r);
+    int coarsest = 1000;
+    for (int r : opt.resolutions) coarsest = std::min(coarsest, r);
     opt.resolutions = {coarsest};
   }
 
@@ -290,13 +296,13 @@ int main(int argc, char** argv) {
   // the compression cases (the ones with a reference) first, then extension and shear; in each
   // group the coarse rows of every solver and case first, so a stopped study covers them
   for (const bool compression : {true, false})
-  for (const double resolution : opt.resolutions)
+  for (const int resolution : opt.resolutions)
     for (const std::string& caseName : opt.cases)
       for (const std::string& solver : opt.solvers) {
         if ((caseName.rfind("compression", 0) == 0) != compression) continue;
-        std::fprintf(stderr, "%s, %s, %.2f cm ...\n", solver.c_str(), caseName.c_str(), resolution);
+        std::fprintf(stderr, "%s, %s, H/dx = %d ...\n", solver.c_str(), caseName.c_str(), resolution);
         Row r = runOne(opt, solver, makeCase(caseName), resolution);
-        std::fprintf(stderr, "%s, %s, %.2f cm: %zu particles, %lld substeps, wall %.1f s, CPU %.1f s; L2 %s, final %s,"
+        std::fprintf(stderr, "%s, %s, H/dx = %d: %zu particles, %lld substeps, wall %.1f s, CPU %.1f s; L2 %s, final %s,"
                      " F(3 s) %.4f N, shear %.4f N%s%s\n",
                      solver.c_str(), caseName.c_str(), resolution, r.run.particles, r.run.substeps, r.run.wallSeconds,
                      r.run.cpuSeconds, pct(r.l2Error).c_str(), pct(r.finalError).c_str(), r.finalAxial(),
