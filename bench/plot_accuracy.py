@@ -40,7 +40,8 @@ def main(csv_path, png_path):
             xs, ys, res = zip(*pts)
             ax.plot(xs, ys, marker="o", color=colours[solver], label=LABELS[solver])
             for x, y, r in pts:
-                ax.annotate("%g cm" % r, (x, y), textcoords="offset points", xytext=(4, 4), fontsize=6,
+                ax.annotate("%.3g cm" % r, (x, y), textcoords="offset points",
+                            xytext=(4, -10 if solver == "MlsMpm" else 4), fontsize=6,
                             color=colours[solver])
         ax.set_xscale("log")
         ax.set_yscale("log")
