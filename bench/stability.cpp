@@ -27,19 +27,21 @@
 #include "bench_report.h"
 #include "mpm/error.h"
 #include "mpm/scene.h"
+#include "scenes/standard_scenes.h"
 
 namespace {
 
 using namespace mpm;
 using namespace mpm::bench;
+using scenes::SeedCylinder;
 
-// the seed 004 cylinder (tests/reference/README.md): decoupled Neo-Hookean, no gravity
-constexpr double kRadius = 0.05, kHeight = 0.1, kMu = 1007.0, kBulk = 50001.333, kDensity = 1000.0;
+// the seed 004 cylinder (scenes::SeedCylinder, tests/reference/README.md)
+constexpr double kHeight = SeedCylinder::kHeight;
 /// Bonded 20 % compression, CalculiX extrapolated to zero mesh size, at the end of the 3 s
 /// ramp (tests/reference/cylinder_compression_extrapolated.csv) [N].
-constexpr double kReferenceForce = -6.804933;
+constexpr double kReferenceForce = SeedCylinder::kBondedFinalForce;
 constexpr float kDx = 0.01f;  // grid cell (MPM) and node spacing (MTLED) [m]
-constexpr float kPlate = 0.02f;  // plate half-thickness [m]
+constexpr float kPlate = SeedCylinder::kPlateHalfThickness;  // plate half-thickness [m]
 
 struct Options {
   std::vector<std::string> solvers{"MlsMpm", "StandardMpm", "PbMpm", "Mtled"};
@@ -90,36 +92,16 @@ SceneSettings baseSettings(SolverType solver, int threads, float halfWidth, floa
 
 /// A kinematic plate (box) whose top or bottom face is at height y.
 ShapeDesc plate(float halfWidth, float faceY, bool below, ContactMode mode, float band) {
-  ShapeDesc d;
-  Geometry box;
-  box.type = GeometryType::Box;
-  box.halfExtents = {halfWidth, kPlate, halfWidth};
-  d.parts = {box};
-  d.contact.mode = mode;
-  d.contact.band = band;
-  d.pose.position = {0.f, below ? faceY - kPlate : faceY + kPlate, 0.f};
-  return d;
+  ContactParams contact;
+  contact.mode = mode;
+  contact.band = band;
+  return scenes::plate(halfWidth, kPlate, faceY, below, contact);
 }
 
-/// Material of the cylinder with the seed's shear modulus and Poisson ratio nu.
-Material cylinderMaterial(double nu) {
-  const double E = 2 * kMu * (1 + nu);
-  return {MaterialModel::NeoHookeanDecoupled, (float)E, (float)nu, (float)kDensity};
-}
-/// nu of the seed's mu and K (0.48999).
-const double kSeedNu = (3 * kBulk - 2 * kMu) / (2 * (3 * kBulk + kMu));
-
-/// P-wave speed sqrt((lambda + 2 mu) / rho) [m/s].
-double waveSpeed(const Material& m) {
-  const double E = m.youngsModulus, nu = m.poissonRatio;
-  return std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / m.density);
-}
-
-/// eq. 43: u(s) = (10 - 15 s + 6 s^2) s^3, s in [0, 1].
-double smoothRamp(double s) {
-  s = std::min(std::max(s, 0.0), 1.0);
-  return (10 - 15 * s + 6 * s * s) * s * s * s;
-}
+Material cylinderMaterial(double nu) { return SeedCylinder::material(nu); }
+const double kSeedNu = SeedCylinder::seedPoissonRatio();
+double waveSpeed(const Material& m) { return SeedCylinder::waveSpeed(m); }
+double smoothRamp(double s) { return SeedCylinder::smoothRamp(s); }
 
 /// Runs `frames` of length `frame`, calling `drive(t, frame)` before and `sample(t)` after
 /// each; fills the row's outcome, energy excess and counts.
@@ -178,45 +160,22 @@ Forces pressWithPlate(Scene& scene, ShapeId top, float face0, Row& row, double f
   return forces;
 }
 
-/// The cylinder between two plates, the top one following `travel(t)` downward [m].
-struct Cylinder {
-  double nu = kSeedNu;
-  ContactMode ends = ContactMode::Bonded;
-  int fixedSubsteps = 0;    ///< 0: the CFL policy (MTLED: its eq. 37 step times the safety)
-  float mtledSafety = 0.5f;
-  float halfWidth = 0.1f;   ///< domain and plates, x and z [m]
-
-  SceneSettings settings(SolverType solver, int threads) const {
-    SceneSettings s = baseSettings(solver, threads, halfWidth, -0.05f, 0.15f);
-    s.substeps.fixedSubsteps = fixedSubsteps;
-    s.mtled.timeStepSafety = mtledSafety;
-    return s;
+/// The seed 004 cylinder between two bonded plates (scenes::SeedCylinder at dx and node
+/// spacing 1 cm, with the energy check), the top plate following `travel(t)` downward [m].
+struct Cylinder : SeedCylinder::Setup {
+  Cylinder(SolverType s, int t) {
+    solver = s;
+    threads = t;
+    resolution = 0.01;  // kDx
+    energyCheck = true;
   }
-
-  struct Parts {
-    ParticleObjectId body;
-    ShapeId top;  ///< the moving plate
-  };
-  Parts build(Scene& scene) const {
-    ParticleObjectDesc cyl;
-    cyl.primitive = PrimitiveType::Cylinder;
-    cyl.center = {0.f, (float)kHeight / 2, 0.f};
-    cyl.radius = (float)kRadius;
-    cyl.halfExtents = {0.f, (float)kHeight / 2, 0.f};
-    const bool meshless = scene.settings().solver == SolverType::Mtled;
-    cyl.particleSpacing = meshless ? kDx : 0.f;
-    cyl.material = cylinderMaterial(nu);
-    const ParticleObjectId body = scene.addParticleObject(cyl);
-    // MTLED's end nodes lie on the faces: a band of a tenth of the spacing holds them
-    const float band = meshless ? 0.1f * kDx : 0.f;
-    scene.addShape(plate(halfWidth, 0.f, true, ends, band));
-    return {body, scene.addShape(plate(halfWidth, (float)kHeight, false, ends, band))};
-  }
+  SceneSettings settings() const { return SeedCylinder::settings(*this); }
+  SeedCylinder::Parts build(Scene& scene) const { return SeedCylinder::build(scene, *this); }
 
   /// Runs the plate motion in frames of `frame` seconds.
-  Forces run(Row& row, int threads, double frame, double duration, double average,
+  Forces run(Row& row, double frame, double duration, double average,
              const std::function<double(double)>& travel) const {
-    Scene scene(settings(row.solver, threads));
+    Scene scene(settings());
     return pressWithPlate(scene, build(scene).top, (float)kHeight, row, frame, duration, average, travel);
   }
 };
@@ -232,19 +191,19 @@ double sweepTravel(double t) { return kSweepCompression * kHeight * smoothRamp(t
 /// critical step of eq. 37.
 double referenceStep(SolverType solver, int threads) {
   if (solver != SolverType::Mtled) return kDx / waveSpeed(cylinderMaterial(kSeedNu));
-  Cylinder c;
+  Cylinder c(solver, threads);
   c.mtledSafety = 1.f;
-  Scene scene(c.settings(solver, threads));
+  Scene scene(c.settings());
   c.build(scene);
   return scene.maxSubstep();
 }
 
 Row sweepRun(SolverType solver, int threads, double k, double dtRef) {
   Row row(solver, "sweep", "k = " + num(k, 3) + " (dt = " + num(1e3 * k * dtRef, 4) + " ms)");
-  Cylinder c;
+  Cylinder c(solver, threads);
   c.fixedSubsteps = 4;  // substeps of exactly k times the estimate; the energy checked every 4
   row.measure = "force after hold / reference";
-  row.value = c.run(row, threads, c.fixedSubsteps * k * dtRef, kSweepRamp + kSweepHold, 0.05, sweepTravel).last /
+  row.value = c.run(row, c.fixedSubsteps * k * dtRef, kSweepRamp + kSweepHold, 0.05, sweepTravel).last /
               kReferenceForce;
   return row;
 }
@@ -274,23 +233,23 @@ std::vector<Row> sweep(SolverType solver, int threads, double& largestStable, do
 
 Row incompressible(SolverType solver, int threads, double nu) {
   Row row(solver, "near-incompressible", "nu = " + num(nu, 3));
-  Cylinder c;
+  Cylinder c(solver, threads);
   c.nu = nu;
   row.measure = "force after 0.1 s hold / reference (nu 0.49)";
-  row.value = c.run(row, threads, 0.005, kSweepRamp + kSweepHold, 0.05, sweepTravel).last / kReferenceForce;
+  row.value = c.run(row, 0.005, kSweepRamp + kSweepHold, 0.05, sweepTravel).last / kReferenceForce;
   return row;
 }
 
 Row compressAndBack(SolverType solver, int threads) {
   constexpr double kRamp = 0.5, kDepth = 0.8 * kHeight;
   Row row(solver, "80 % compression and back", "bonded, 0.5 s each way");
-  Cylinder c;
+  Cylinder c(solver, threads);
   c.halfWidth = 0.2f;  // the cylinder bulges to more than twice its radius
   const auto travel = [&](double t) {
     return kDepth * (t < kRamp ? smoothRamp(t / kRamp) : smoothRamp((2 * kRamp - t) / kRamp));
   };
-  Scene scene(c.settings(solver, threads));
-  const Cylinder::Parts parts = c.build(scene);
+  Scene scene(c.settings());
+  const SeedCylinder::Parts parts = c.build(scene);
   const Forces f = pressWithPlate(scene, parts.top, (float)kHeight, row, 0.005, 2 * kRamp + 0.05, 0.05, travel);
   // back at the start, a body still held by both plates spans H again and pushes back little
   std::vector<Vec3f> x;

@@ -1,6 +1,13 @@
 #include "scenes/standard_scenes.h"
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <ctime>
+#include <fstream>
+#include <sstream>
+
+#include "mpm/error.h"
 
 namespace mpm::scenes {
 
@@ -209,6 +216,174 @@ HertzIndentation::Comparison HertzIndentation::compare(const Run& run) {
   const double dHertz = kMaxDepth * std::pow(std::fmax(f / fh, 0.0), 2.0 / 3.0);
   c.depthLossCells = (kMaxDepth - dHertz) / cellSize(run.setup);
   return c;
+}
+
+ShapeDesc plate(float halfWidth, float halfThickness, float faceY, bool below, const ContactParams& contact) {
+  ShapeDesc d;
+  Geometry box;
+  box.type = GeometryType::Box;
+  box.halfExtents = {halfWidth, halfThickness, halfWidth};
+  d.parts = {box};
+  d.contact = contact;
+  d.pose.position = {0.f, below ? faceY - halfThickness : faceY + halfThickness, 0.f};
+  return d;
+}
+
+double SeedCylinder::seedPoissonRatio() { return (3 * kBulk - 2 * kMu) / (2 * (3 * kBulk + kMu)); }
+
+Material SeedCylinder::material(double nu) {
+  // at the seed's nu, E = 2 mu (1 + nu) rounds to the same float as 9 K mu / (3 K + mu)
+  const double E = 2 * kMu * (1 + nu);
+  return {MaterialModel::NeoHookeanDecoupled, (float)E, (float)nu, (float)kDensity};
+}
+
+double SeedCylinder::waveSpeed(const Material& m) {
+  const double E = m.youngsModulus, nu = m.poissonRatio;
+  return std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / m.density);
+}
+
+double SeedCylinder::smoothRamp(double s) {
+  s = std::min(std::max(s, 0.0), 1.0);
+  return (10 - 15 * s + 6 * s * s) * s * s * s;
+}
+
+const char* SeedCylinder::loadingName(Loading loading) {
+  switch (loading) {
+    case Loading::Compression: return "compression";
+    case Loading::Extension: return "extension";
+    case Loading::Shear: return "shear";
+  }
+  return "?";
+}
+
+SceneSettings SeedCylinder::settings(const Setup& setup) {
+  const bool meshless = setup.solver == SolverType::Mtled;
+  const double dx = meshless ? 0.01 : setup.resolution;
+  // whole cells from the origin to the lower y face and to the x, z faces (computed in
+  // double: at dx = 0.01 these are exactly -0.05 and +-halfWidth)
+  const double below = dx * std::round(0.05 / dx), side = dx * std::round(setup.halfWidth / dx);
+  SceneSettings s;
+  s.domain = {{(float)-side, (float)-below, (float)-side}, {(float)side, 0.15f, (float)side}};
+  s.domain.walls = false;
+  s.dx = (float)dx;
+  s.gravity = {0.f, 0.f, 0.f};
+  s.solver = setup.solver;
+  s.backend = setup.backend;
+  s.cpuThreads = setup.threads;
+  s.energyCheck.enabled = setup.energyCheck;
+  s.substeps.fixedSubsteps = setup.fixedSubsteps;
+  s.mtled.timeStepSafety = setup.mtledSafety;
+  s.mtled.smoothedStrain = setup.smoothedStrain;
+  return s;
+}
+
+ParticleObjectDesc SeedCylinder::cylinder(const Setup& setup) {
+  ParticleObjectDesc cyl;
+  cyl.primitive = PrimitiveType::Cylinder;
+  cyl.center = {0.f, (float)kHeight / 2, 0.f};
+  cyl.radius = (float)kRadius;
+  cyl.halfExtents = {0.f, (float)kHeight / 2, 0.f};
+  // MTLED: nodes `resolution` apart; MPM: 2 particles per cell axis
+  cyl.particleSpacing = setup.solver == SolverType::Mtled ? (float)setup.resolution : 0.f;
+  cyl.material = material(setup.nu);
+  return cyl;
+}
+
+ShapeDesc SeedCylinder::plate(const Setup& setup, bool top) {
+  ContactParams contact;
+  contact.mode = setup.ends;
+  contact.friction = 0.f;
+  const bool meshless = setup.solver == SolverType::Mtled;
+  contact.band = setup.plateBand >= 0.f ? setup.plateBand : (float)setup.resolution * (meshless ? 0.1f : 0.5f);
+  return scenes::plate(setup.halfWidth, kPlateHalfThickness, top ? (float)kHeight : 0.f, !top, contact);
+}
+
+SeedCylinder::Parts SeedCylinder::build(Scene& scene, const Setup& setup) {
+  Parts p;
+  p.body = scene.addParticleObject(cylinder(setup));
+  p.bottom = scene.addShape(plate(setup, false));
+  p.top = scene.addShape(plate(setup, true));
+  return p;
+}
+
+std::array<double, 3> SeedCylinder::topDisplacement(Loading loading, double t, double rampTime) {
+  // D (10 - 15 s + 6 s^2) s^3, multiplied in this order (tests/test_mtled.cpp's numbers)
+  const double s = std::min(std::max(t / rampTime, 0.0), 1.0);
+  const double u = kTravel * (10 - 15 * s + 6 * s * s) * s * s * s;
+  switch (loading) {
+    case Loading::Compression: return {0.0, -u, 0.0};
+    case Loading::Extension: return {0.0, u, 0.0};
+    case Loading::Shear: return {u, 0.0, 0.0};
+  }
+  return {0.0, 0.0, 0.0};
+}
+
+SeedCylinder::Run SeedCylinder::run(const Setup& setup, Loading loading, double frame, double sample,
+                                    const std::function<void(double)>& progress) {
+  Scene scene(settings(setup));
+  const Parts parts = build(scene, setup);
+  Run run;
+  run.particles = scene.particleCount(parts.body);
+  const auto wall0 = std::chrono::steady_clock::now();
+  const std::clock_t cpu0 = std::clock();
+  double t = 0;
+  for (int k = 0; t < setup.rampTime - 1e-9; ++k) {
+    const double t1 = k == 0 ? frame / 2 : t + frame;
+    // the plate's pose at the frame's start and its mean velocity over the frame, in double
+    // before rounding
+    const std::array<double, 3> u0 = topDisplacement(loading, t, setup.rampTime),
+                                u1 = topDisplacement(loading, t1, setup.rampTime);
+    ShapeState st;
+    st.pose.position = {(float)u0[0], (float)(kHeight + kPlateHalfThickness + u0[1]), 0.f};
+    st.linearVelocity = {(float)((u1[0] - u0[0]) / (t1 - t)), (float)((u1[1] - u0[1]) / (t1 - t)), 0.f};
+    scene.setShapeState(parts.top, st);
+    const StepReport r = scene.step((float)(t1 - t));
+    run.substeps += r.substeps;
+    run.substepDt = r.substepDt;
+    run.energy = r.energy;
+    const double mid = 0.5 * (t + t1);
+    if (std::abs(mid / sample - std::round(mid / sample)) < 1e-6 && mid > 1e-6) {
+      // the plate receives +impulse; the force on the cylinder is its opposite
+      const ShapeImpulse impulse = scene.shapeImpulse(parts.top);
+      run.time.push_back(mid);
+      run.axialForce.push_back(-impulse.linear.y / (t1 - t));
+      run.shearForce.push_back(-impulse.linear.x / (t1 - t));
+    }
+    t = t1;
+    if (progress) progress(t);
+  }
+  run.simulated = t;
+  run.wallSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  run.cpuSeconds = (double)(std::clock() - cpu0) / CLOCKS_PER_SEC;
+  return run;
+}
+
+std::vector<std::vector<double>> SeedCylinder::readCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in.good()) throw Error("cannot open " + path);
+  std::vector<std::vector<double>> columns;
+  std::string line;
+  bool header = true;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (header) {
+      header = false;
+      continue;
+    }
+    std::stringstream s(line);
+    std::string cell;
+    for (size_t c = 0; std::getline(s, cell, ','); ++c) {
+      if (columns.size() <= c) columns.emplace_back();
+      columns[c].push_back(std::stod(cell));
+    }
+  }
+  return columns;
+}
+
+double SeedCylinder::at(const std::vector<double>& times, const std::vector<double>& values, double t) {
+  for (size_t i = 0; i < times.size() && i < values.size(); ++i)
+    if (std::abs(times[i] - t) < 1e-6) return values[i];
+  return std::nan("");
 }
 
 }  // namespace mpm::scenes

@@ -1,7 +1,9 @@
 #pragma once
 /// Scenes shared by tests, demos and benchmarks, so that "the CRESSim bench scene" or "the
 /// block drop" is defined once (STYLE: scenes shared by tests, demos and benchmarks).
+#include <array>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -126,6 +128,122 @@ struct HertzIndentation {
     double depthLossCells = 0;
   };
   static Comparison compare(const Run& run);
+};
+
+/// A kinematic plate (box shape of mass 0), `halfWidth` in x and z, `halfThickness` in y,
+/// whose lower face (`below` false) or upper face (`below` true) is at height `faceY`.
+ShapeDesc plate(float halfWidth, float halfThickness, float faceY, bool below, const ContactParams& contact);
+
+/// The seed 004 cylinder (tests/reference/README.md: CalculiX references, Horton et al.
+/// 2010's set-up) between two kinematic plates: R = 5 cm, H = 10 cm, axis along y (the
+/// library's up axis) with the bottom face at y = 0, decoupled Neo-Hookean mu = 1007 Pa,
+/// K = 50001.333 Pa (nu = 0.48999), rho = 1000 kg/m^3, no gravity. Used by
+/// tests/test_mtled.cpp (MTLED against the references), bench/stability.cpp (the step
+/// sweep and the other cylinder cases) and bench/accuracy.cpp (every solver, three
+/// resolutions, error against wall time).
+///
+/// - Plates: boxes 2 cm thick (half-thickness kPlateHalfThickness), `halfWidth` in x and z,
+///   the bottom one's upper face at y = 0 and the top one's lower face at y = H, in the
+///   contact mode `ends` with friction 0 (Bonded: glued ends; Frictional: slip ends). MTLED's
+///   end nodes lie on the faces: a band of a tenth of the node spacing holds them; the MPM
+///   solvers use band 0 (the nodes inside the plate).
+/// - Grid: MPM solvers dx = `resolution` with 8 particles per cell; MTLED dx = 1 cm (its
+///   node spacing is `resolution`; the grid only bins the nodes). The domain's lower y face
+///   and its x, z faces are whole cells from the origin (the plate face y = 0 lies on a node
+///   layer and the axis on a node column at every dx); walls off.
+/// - Ramp (eq. 43 of the seed): u(t) = D (10 - 15 s + 6 s^2) s^3, s = t / T, T = 3 s,
+///   D = 0.2 H (20 %): the top plate moves down (compression), up (extension) or along +x
+///   (shear, the plate's height kept).
+/// - Force: the impulse the material gave the top plate over a frame divided by the
+///   frame's length, negated (the force the plate applies to the cylinder; negative y in
+///   compression).
+struct SeedCylinder {
+  static constexpr double kRadius = 0.05;      ///< R [m]
+  static constexpr double kHeight = 0.1;       ///< H [m]
+  static constexpr double kMu = 1007.0;        ///< shear modulus [Pa]
+  static constexpr double kBulk = 50001.333;   ///< bulk modulus [Pa]
+  static constexpr double kDensity = 1000.0;   ///< [kg/m^3]
+  static constexpr double kRampTime = 3.0;     ///< T [s]
+  static constexpr double kTravel = 0.02;      ///< D = 0.2 H: 20 % compression, extension or shear [m]
+  static constexpr float kPlateHalfThickness = 0.02f;  ///< [m]
+  /// Bonded 20 % compression at t = T, CalculiX extrapolated to zero mesh size
+  /// (tests/reference/cylinder_compression_extrapolated.csv) [N].
+  static constexpr double kBondedFinalForce = -6.804933;
+
+  /// nu of the seed's mu and K, (3K - 2 mu) / (2 (3K + mu)) = 0.48999.
+  static double seedPoissonRatio();
+  /// The material with the seed's mu and Poisson ratio nu (E = 2 mu (1 + nu)).
+  static Material material(double nu);
+  /// P-wave speed sqrt((lambda + 2 mu) / rho) of a material [m/s].
+  static double waveSpeed(const Material& m);
+  /// (10 - 15 s + 6 s^2) s^3 with s clamped to [0, 1].
+  static double smoothRamp(double s);
+
+  enum class Loading { Compression, Extension, Shear };
+  static const char* loadingName(Loading loading);  ///< "compression", "extension", "shear"
+
+  /// What a run may vary; the defaults are tests/test_mtled.cpp's bonded MTLED run.
+  struct Setup {
+    SolverType solver = SolverType::Mtled;
+    double resolution = 0.01;   ///< MPM: cell size dx; MTLED: node spacing [m]
+    double nu = seedPoissonRatio();
+    ContactMode ends = ContactMode::Bonded;
+    float halfWidth = 0.1f;     ///< of the domain and the plates, x and z [m]
+    int fixedSubsteps = 0;      ///< 0: the CFL policy (MTLED: eq. 37 times timeStepSafety)
+    float mtledSafety = 0.5f;   ///< MtledSettings::timeStepSafety
+    bool energyCheck = false;   ///< SceneSettings::energyCheck.enabled
+    bool smoothedStrain = true; ///< MtledSettings::smoothedStrain
+    double rampTime = kRampTime;  ///< T of the loading ramp [s]
+    /// The plates' contact band [m]; negative: half a cell for the grid solvers (the node
+    /// layer nearest each face follows the plate, ContactParams::band), a tenth of the node
+    /// spacing for MTLED (its end nodes lie on the faces).
+    float plateBand = -1.f;
+    Backend backend = Backend::Cpu;
+    int threads = 0;            ///< CPU threads; 0 = all
+  };
+  static SceneSettings settings(const Setup& setup);
+  static ParticleObjectDesc cylinder(const Setup& setup);
+  /// The bottom plate (upper face at y = 0) or the top one (lower face at y = H), at rest.
+  static ShapeDesc plate(const Setup& setup, bool top);
+
+  struct Parts {
+    ParticleObjectId body;
+    ShapeId bottom, top;
+  };
+  /// Adds the cylinder and both plates.
+  static Parts build(Scene& scene, const Setup& setup);
+
+  /// Top-plate displacement from its start at time t under `loading` [m] (x: shear,
+  /// y: compression (negative) and extension).
+  static std::array<double, 3> topDisplacement(Loading loading, double t, double rampTime = kRampTime);
+
+  /// One run of the ramp: forces on the cylinder from the top plate at t = sample,
+  /// 2 sample, ..., T.
+  struct Run {
+    std::vector<double> time;
+    std::vector<double> axialForce;  ///< y [N] (negative: compression)
+    std::vector<double> shearForce;  ///< x [N] (negative: against the shear)
+    size_t particles = 0;            ///< particles or MTLED nodes
+    long long substeps = 0;
+    float substepDt = 0;             ///< of the last frame [s]
+    double simulated = 0;            ///< time simulated, T + frame / 2 [s]
+    double wallSeconds = 0, cpuSeconds = 0;  ///< the stepping only (not the set-up)
+    EnergyBalance energy;            ///< at the end (with Setup::energyCheck)
+  };
+  /// Frames of `frame` seconds: the first [0, frame / 2], then [k frame - frame / 2,
+  /// k frame + frame / 2], so every frame whose middle is a multiple of `sample` (sample a
+  /// multiple of frame) gives the force there as the mean over a frame centred on it (the
+  /// value at the sample to second order); the last is centred on T. The top plate gets its
+  /// pose at the frame's start and the frame's mean velocity. `progress(t)` after each frame.
+  /// A SimulationDiverged propagates.
+  static Run run(const Setup& setup, Loading loading, double frame = 0.01, double sample = 0.1,
+                 const std::function<void(double)>& progress = {});
+
+  /// Columns of a reference CSV ('#' lines are comments, then one header line); throws
+  /// mpm::Error when the file cannot be read.
+  static std::vector<std::vector<double>> readCsv(const std::string& path);
+  /// Value of a column at time t from (times, values) tabulated at the samples; NaN if absent.
+  static double at(const std::vector<double>& times, const std::vector<double>& values, double t);
 };
 
 }  // namespace mpm::scenes

@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# Builds bench_accuracy in Release, runs it (arguments are passed through; see
+# `bench_accuracy --help`) and plots error against wall time to <out>.png (matplotlib from
+# PyPI in bench/.venv, made on first use; plotting only). Results go to
+# bench/results/accuracy.{md,csv,png} and accuracy_curves.csv unless --out says otherwise.
+#
+#   bench/run_accuracy.sh                   # the full study (about an hour on 2 busy cores)
+#   bench/run_accuracy.sh --quick           # 1 cm only, every solver and case (~3 min)
+#   bench/run_accuracy.sh --solvers Mtled,MlsMpm --cases compression-bonded
+#
+# Environment:
+#   MPM_BENCH_BUILD_DIR   build directory (default: build)
+#   MPM_BENCH_JOBS        parallel build jobs (default: 2)
+# The wall times are the machine's as it was: no idle check (bench/idle_check.sh) here;
+# the report's header records the load average before and after.
+set -euo pipefail
+
+repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$repo"
+build="${MPM_BENCH_BUILD_DIR:-build}"
+jobs="${MPM_BENCH_JOBS:-2}"
+
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release
+cmake --build "$build" -j"$jobs" --target bench_accuracy
+
+"$build/bench/bench_accuracy" "$@"
+
+# the results' path stem, as bench_accuracy took it
+out="bench/results/accuracy"
+args=("$@")
+for ((i = 0; i < ${#args[@]}; i++)); do
+  case "${args[i]}" in
+    --out) out="${args[i + 1]:-$out}" ;;
+    --out=*) out="${args[i]#--out=}" ;;
+  esac
+done
+venv="$repo/bench/.venv"
+if [[ ! -x "$venv/bin/python" ]] || ! "$venv/bin/python" -c "import matplotlib" 2>/dev/null; then
+  python3 -m venv "$venv" && "$venv/bin/pip" install --quiet matplotlib ||
+    { echo "run_accuracy.sh: warning: no matplotlib (needs python3-venv and PyPI); no plot" >&2; exit 0; }
+fi
+"$venv/bin/python" bench/plot_accuracy.py "$out.csv" "$out.png"
+echo "run_accuracy.sh: wrote $out.png" >&2
