@@ -25,19 +25,5 @@ cmake --build "$build" -j"$jobs" --target bench_accuracy
 
 "$build/bench/bench_accuracy" "$@"
 
-# the results' path stem, as bench_accuracy took it
-out="bench/results/accuracy"
-args=("$@")
-for ((i = 0; i < ${#args[@]}; i++)); do
-  case "${args[i]}" in
-    --out) out="${args[i + 1]:-$out}" ;;
-    --out=*) out="${args[i]#--out=}" ;;
-  esac
-done
-venv="$repo/bench/.venv"
-if [[ ! -x "$venv/bin/python" ]] || ! "$venv/bin/python" -c "import matplotlib" 2>/dev/null; then
-  python3 -m venv "$venv" && "$venv/bin/pip" install --quiet matplotlib ||
-    { echo "run_accuracy.sh: warning: no matplotlib (needs python3-venv and PyPI); no plot" >&2; exit 0; }
-fi
-"$venv/bin/python" bench/plot_accuracy.py "$out.csv" "$out.png"
-echo "run_accuracy.sh: wrote $out.png" >&2
+source "$repo/bench/plot_results.sh"
+plot_results run_accuracy.sh bench/results/accuracy bench/plot_accuracy.py "$@"

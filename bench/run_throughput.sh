@@ -27,19 +27,5 @@ wait_for_idle run_throughput.sh
 
 "$build/bench/bench_throughput" "$@"
 
-# the results' path stem, as bench_throughput took it
-out="bench/results/throughput"
-args=("$@")
-for ((i = 0; i < ${#args[@]}; i++)); do
-  case "${args[i]}" in
-    --out) out="${args[i + 1]:-$out}" ;;
-    --out=*) out="${args[i]#--out=}" ;;
-  esac
-done
-venv="$repo/bench/.venv"
-if [[ ! -x "$venv/bin/python" ]]; then
-  python3 -m venv "$venv" && "$venv/bin/pip" install --quiet matplotlib ||
-    { echo "run_throughput.sh: warning: no matplotlib (needs python3-venv and PyPI); no plot" >&2; exit 0; }
-fi
-"$venv/bin/python" bench/plot_throughput.py "$out.csv" "$out.png"
-echo "run_throughput.sh: wrote $out.png" >&2
+source "$repo/bench/plot_results.sh"
+plot_results run_throughput.sh bench/results/throughput bench/plot_throughput.py "$@"
