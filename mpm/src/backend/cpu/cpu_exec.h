@@ -318,8 +318,12 @@ struct CpuExec {
           hi[a] = std::max(hi[a], c[a]);
         }
       }
+      // from the first node of the lowest blocks to the last node of the highest, as the
+      // contact pass bounds each block
       const Vec3f boxLo = geo_.lower + (geo_.dx * kBlockSize) * Vec3f{(float)lo[0], (float)lo[1], (float)lo[2]};
-      const Vec3f boxHi = geo_.lower + (geo_.dx * kBlockSize) * Vec3f{(float)hi[0] + 1, (float)hi[1] + 1, (float)hi[2] + 1};
+      const Vec3f boxHi = geo_.lower + geo_.dx * Vec3f{(float)(hi[0] * kBlockSize + kBlockSize - 1),
+                                                       (float)(hi[1] * kBlockSize + kBlockSize - 1),
+                                                       (float)(hi[2] * kBlockSize + kBlockSize - 1)};
       for (int p = 0; p < nParts; ++p)
         if (parts[p].mayTouch(boxLo, boxHi)) return true;
       return false;
