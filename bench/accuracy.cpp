@@ -255,7 +255,7 @@ std::string curvesTable(const std::vector<Row>& rows) {
 
 int main(int argc, char** argv) {
   Options opt;
-  CLI::App app{"Seed 004 cylinder: force error against wall time, every solver at three resolutions"};
+  CLI::App app{"Seed 004 cylinder: force error against run time, every solver at three resolutions"};
   app.add_option("--solvers", opt.solvers, "solvers to run")
       ->delimiter(',')
       ->check(CLI::IsMember(kSolverNames))

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds bench_accuracy in Release, runs it (arguments are passed through; see
-# `bench_accuracy --help`) and plots error against wall time to <out>.png (matplotlib from
+# `bench_accuracy --help`) and plots error against CPU time to <out>.png (matplotlib from
 # PyPI in bench/.venv, made on first use; plotting only). Results go to
 # bench/results/accuracy.{md,csv,png} and accuracy_curves.csv unless --out says otherwise.
 #
@@ -17,13 +17,9 @@ set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
-build="${MPM_BENCH_BUILD_DIR:-build}"
-jobs="${MPM_BENCH_JOBS:-2}"
-
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release
-cmake --build "$build" -j"$jobs" --target bench_accuracy
+source "$repo/bench/run_common.sh"
+build_bench bench_accuracy
 
 "$build/bench/bench_accuracy" "$@"
 
-source "$repo/bench/plot_results.sh"
 plot_results run_accuracy.sh bench/results/accuracy bench/plot_accuracy.py "$@"

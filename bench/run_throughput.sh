@@ -16,16 +16,12 @@ set -euo pipefail
 
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$repo"
-build="${MPM_BENCH_BUILD_DIR:-build}"
-jobs="${MPM_BENCH_JOBS:-2}"
-
-cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release
-cmake --build "$build" -j"$jobs" --target bench_throughput
+source "$repo/bench/run_common.sh"
+build_bench bench_throughput
 
 source "$repo/bench/idle_check.sh"
 wait_for_idle run_throughput.sh
 
 "$build/bench/bench_throughput" "$@"
 
-source "$repo/bench/plot_results.sh"
 plot_results run_throughput.sh bench/results/throughput bench/plot_throughput.py "$@"

@@ -204,10 +204,12 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
     if (nParts == 0) return;
     const auto t0 = Clock::now();
     if (!shapesInReach_) {  // no node can touch a part: dynamic bodies only feel gravity
-      shapes_.clearStepSums();
-      if (shapes_.anyDynamic() && bodyGravity) shapes_.accelerate(dt);
-      shapes_.predict();  // with nothing received: V' = V
-      shapes_.settle();
+      if (shapes_.anyDynamic()) {
+        shapes_.clearStepSums();
+        if (bodyGravity) shapes_.accelerate(dt);
+        shapes_.predict();  // with nothing received: V' = V
+        shapes_.settle();
+      }
       timings.contact += seconds(t0);
       return;
     }
