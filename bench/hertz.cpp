@@ -16,6 +16,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -42,6 +43,7 @@ constexpr double kR = HertzIndentation::kRadius;
 struct Options {
   std::vector<int> resolutions{4, 6, 8};  ///< R / dx of the rows
   int threads = 0;                        ///< CPU threads; 0 = all
+  mpm::Backend backend = mpm::Backend::Cpu;
   float loadingTransits = 20.f;           ///< time from d = 0 to 0.1 R [H / c_p]
   float slab = 4.f;                       ///< slab half-width and thickness [R]
   int sensitivity = 0;  ///< R / dx of the loading-rate and slab-size rows; 0: none
@@ -63,8 +65,9 @@ struct Row {
 /// the result is in the name).
 std::string runFile(const std::string& runs, const HertzIndentation::Setup& s) {
   char name[160];
-  std::snprintf(name, sizeof name, "/r%d_slab%.4gx%.4g_load%.4g_%s.csv", s.cellsPerRadius, s.slabHalfWidth,
-                s.slabThickness, s.loadingTransits, s.quarter ? "quarter" : "whole");
+  std::snprintf(name, sizeof name, "/r%d_slab%.4gx%.4g_load%.4g_%s%s.csv", s.cellsPerRadius, s.slabHalfWidth,
+                s.slabThickness, s.loadingTransits, s.quarter ? "quarter" : "whole",
+                s.backend == mpm::Backend::Cuda ? "_cuda" : "");
   return runs + name;
 }
 
@@ -231,7 +234,11 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   const double a = std::sqrt(kR * HertzIndentation::kMaxDepth);
   const double chi = a / scene.slabThickness;
   std::ostringstream m;
-  m << info.header("Hertz contact: rigid sphere into an elastic slab, CPU backend", MPM_BENCH_BUILD_TYPE);
+  const bool gpu = opt.backend == mpm::Backend::Cuda;
+  m << info.header(std::string("Hertz contact: rigid sphere into an elastic slab, ") + (gpu ? "CUDA" : "CPU") +
+                       " backend",
+                   MPM_BENCH_BUILD_TYPE);
+  if (gpu) m << "- GPU: " << mpm::cudaDeviceName() << "\n\n";
   m << "Scene (`mpm::scenes::HertzIndentation`, defined in mpm/scenes/standard_scenes.h): a kinematic"
        " sphere, R = "
     << num(1e3 * kR, 0) << " mm, frictionless (Frictional, friction 0, band 0), pressed into a slab"
@@ -310,6 +317,11 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--threads", opt.threads, "CPU threads; 0 = all")->check(CLI::NonNegativeNumber)->capture_default_str();
+  app.add_option("--backend", opt.backend, "backend of every row: cpu or cuda")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, mpm::Backend>{{"cpu", mpm::Backend::Cpu},
+                                                                              {"cuda", mpm::Backend::Cuda}},
+                                          CLI::ignore_case))
+      ->capture_default_str();
   app.add_option("--loading-transits", opt.loadingTransits,
                  "loading time from d = 0 to 0.1 R, in P-wave transits of the slab")
       ->check(CLI::PositiveNumber)
@@ -334,7 +346,7 @@ int main(int argc, char** argv) {
   HertzIndentation::Setup base;
   base.slabHalfWidth = base.slabThickness = opt.slab * (float)kR;
   base.loadingTransits = opt.loadingTransits;
-  base.backend = mpm::Backend::Cpu;
+  base.backend = opt.backend;
   base.threads = opt.threads;
   base.quarter = !opt.whole;
 

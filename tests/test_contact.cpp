@@ -429,9 +429,13 @@ TEST_P(Contact, FarShapesChangeNothingAndNearOnesStillAct) {
   alone.readPositions(a, xa);
   withShapes.readPositions(b, xb);
   ASSERT_EQ(xa.size(), xb.size());
-  size_t differ = 0;
-  for (size_t i = 0; i < xa.size(); ++i) differ += xa[i].x != xb[i].x || xa[i].y != xb[i].y || xa[i].z != xb[i].z;
-  EXPECT_EQ(differ, 0u) << name() << ": particles moved differently beside far shapes";
+  // CPU: bit for bit. CUDA: P2G's float atomics sum in a varying order, so two runs of the
+  // same scene differ by rounding; bound it far below any contact's effect (a cell is 5 cm).
+  float maxDiff = 0.f;
+  for (size_t i = 0; i < xa.size(); ++i) maxDiff = std::max(maxDiff, norm(xa[i] - xb[i]));
+  const float allowed = backend() == Backend::Cuda ? 1e-5f : 0.f;
+  EXPECT_LE(maxDiff, allowed) << name() << ": particles moved differently beside far shapes";
+  std::printf("%s: largest position difference beside far shapes %.3g m\n", name().c_str(), maxDiff);
   EXPECT_EQ(withShapes.shapeImpulse(wallId).linear.x, 0.f);
   EXPECT_EQ(withShapes.shapeImpulse(ballId).linear.y, 0.f);
   const double t = 20 * frame;

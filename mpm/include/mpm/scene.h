@@ -8,6 +8,7 @@
 ///   scene.advance(1.f / 60);  /* other work */  scene.fetchResults();
 #include <cstddef>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "mpm/error.h"
@@ -134,5 +135,7 @@ class Scene {
 
 /// True if a CUDA device is usable from this process.
 bool cudaDeviceAvailable();
+/// The name of the CUDA device a Cuda scene runs on ("" if there is none), for reports.
+std::string cudaDeviceName();
 
 }  // namespace mpm

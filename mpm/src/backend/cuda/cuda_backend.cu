@@ -14,6 +14,17 @@ bool cudaDeviceAvailable() {
   return count > 0;
 }
 
+std::string cudaDeviceName() {
+  if (!cudaDeviceAvailable()) return "";
+  int device = 0;
+  cudaDeviceProp prop{};
+  if (cudaGetDevice(&device) != cudaSuccess || cudaGetDeviceProperties(&prop, device) != cudaSuccess) {
+    cudaGetLastError();
+    return "";
+  }
+  return prop.name;
+}
+
 std::unique_ptr<SimBackend> makeCudaBackend(const SceneSettings& settings, const GridGeometry& geo) {
   if (!cudaDeviceAvailable()) throw BackendUnavailable("no usable CUDA device in this process");
   return makeSolverBackend<CudaExec>(settings, geo);

@@ -4,6 +4,7 @@
 namespace mpm {
 
 bool cudaDeviceAvailable() { return false; }
+std::string cudaDeviceName() { return ""; }
 
 std::unique_ptr<SimBackend> makeCudaBackend(const SceneSettings&, const GridGeometry&) {
   throw BackendUnavailable("the library was built without the CUDA backend (nvcc not found)");
