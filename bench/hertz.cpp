@@ -16,7 +16,6 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
-#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -28,6 +27,7 @@
 #include "mpm/error.h"
 #include "mpm/output.h"
 #include "mpm/scene.h"
+#include "backend_option.h"
 #include "bench_report.h"
 #include "scenes/standard_scenes.h"
 
@@ -317,11 +317,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--threads", opt.threads, "CPU threads; 0 = all")->check(CLI::NonNegativeNumber)->capture_default_str();
-  app.add_option("--backend", opt.backend, "backend of every row: cpu or cuda")
-      ->transform(CLI::CheckedTransformer(std::map<std::string, mpm::Backend>{{"cpu", mpm::Backend::Cpu},
-                                                                              {"cuda", mpm::Backend::Cuda}},
-                                          CLI::ignore_case))
-      ->capture_default_str();
+  addBackendOption(app, opt.backend);
   app.add_option("--loading-transits", opt.loadingTransits,
                  "loading time from d = 0 to 0.1 R, in P-wave transits of the slab")
       ->check(CLI::PositiveNumber)

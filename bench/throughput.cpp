@@ -39,6 +39,7 @@
 #include "mpm/output.h"
 #include "mpm/scene.h"
 #include "bandwidth.h"
+#include "backend_option.h"
 #include "bench_report.h"
 #include "scenes/standard_scenes.h"
 
@@ -137,8 +138,9 @@ struct SolverCase {
     }
     return name;
   }
-  mpm::SceneSettings settings(int threads, const SceneVariant& variant) const {
-    mpm::SceneSettings s = CressimBench::settings(mpm::Backend::Cpu, threads);
+  mpm::SceneSettings settings(int threads, const SceneVariant& variant,
+                              mpm::Backend backend = mpm::Backend::Cpu) const {
+    mpm::SceneSettings s = CressimBench::settings(backend, threads);
     variant.adjust(s);
     s.solver = type;
     if (type == mpm::SolverType::PbMpm) {
@@ -155,6 +157,7 @@ struct Options {
   std::vector<std::string> variants{"plain"};  ///< SceneVariant names
   std::vector<float> sizes{0.5f, 1.f, 1.5f, 2.5f, 5.f};  ///< box half-sizes [m]
   std::vector<int> threads{1, 2};                          ///< CPU worker threads per run
+  mpm::Backend backend = mpm::Backend::Cpu;                ///< of every run
   int frames = 100;       ///< timed frames per run
   int framesLarge = 20;   ///< timed frames per run above kLargeRunParticles particles
   int repeats = 3;        ///< runs per row; the row reports their median
@@ -209,6 +212,7 @@ struct Row {
   float halfSize = 0;
   size_t particles = 0;
   int threads = 0;
+  mpm::Backend backend = mpm::Backend::Cpu;
   int frames = 0;
   size_t memoryBytes = 0;
   std::vector<RunSample> samples;
@@ -264,7 +268,7 @@ size_t particlesAt(float halfSize) {
 /// finite, abandons the run as soon as other processes are seen to take more CPU than that.
 RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
                   long long& framesDone) {
-  mpm::Scene scene(row.solver.settings(row.threads, row.variant));
+  mpm::Scene scene(row.solver.settings(row.threads, row.variant, row.backend));
   scene.addParticleObject(row.variant.box(row.halfSize));
   row.variant.addShapes(scene);
   for (int f = 0; f < kWarmupFrames; ++f) {
@@ -358,7 +362,8 @@ void summarise(Row& r) {
   r.otherShare = 100.0 - r.sortShare - r.p2gShare - r.gridShare - r.g2pShare;
   r.bytesPerParticle = (double)r.memoryBytes / (double)r.particles;
   r.achievedGBs = r.mps * kBytesPerParticleSubstep / 1e3;
-  r.cressim = cressimFigure(r.solver, r.particles);
+  // CRESSim's figures are its serial CPU solvers': no peer for a GPU row
+  r.cressim = r.backend == mpm::Backend::Cpu ? cressimFigure(r.solver, r.particles) : std::nan("");
   r.summarised = true;
 }
 
@@ -480,7 +485,15 @@ std::vector<Bandwidth> measureBandwidths(const Options& opt) {
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows,
                            const std::vector<Bandwidth>& bw) {
   std::ostringstream m;
-  m << info.header("Throughput: CRESSim scene, CPU backend", MPM_BENCH_BUILD_TYPE);
+  const bool gpu = opt.backend == mpm::Backend::Cuda;
+  m << info.header(std::string("Throughput: CRESSim scene, ") + (gpu ? "CUDA" : "CPU") + " backend",
+                   MPM_BENCH_BUILD_TYPE);
+  if (gpu)
+    m << "- GPU: " << mpm::cudaDeviceName()
+      << " (threads: the host's OpenMP threads, which only launch kernels; no peer ratio, CRESSim's"
+         " figures being its serial CPU solvers'; the stage shares are host timers around asynchronous"
+         " launches, so the kernels' time lands in the stage that waits for the device, binning, which"
+         " reads the active-block count back: they do not split the GPU's time)\n\n";
   if (std::any_of(rows.begin(), rows.end(), [&](const Row& r) { return r.otherLoad > opt.maxOtherLoad; }))
     m << "**Preliminary: rows marked (busy) ran while other processes took more than " << opt.maxOtherLoad
       << " cores; their times and ratios are not for quoting. Rerun on an idle machine.**\n\n";
@@ -593,6 +606,7 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  addBackendOption(app, opt.backend);
   app.add_option("--frames", opt.frames, "timed frames per run")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
@@ -668,6 +682,7 @@ int main(int argc, char** argv) {
         r.halfSize = half;
         r.particles = particles;
         r.threads = threads;
+        r.backend = opt.backend;
         r.frames = frames;
         rows.push_back(r);
       }

@@ -5,10 +5,12 @@
 // the kernel bodies it launches are the same functions the CPU tests exercise.
 #include <cuda_runtime.h>
 #include <thrust/execution_policy.h>
+#include <thrust/system/cuda/execution_policy.h>
 #include <thrust/sequence.h>
 #include <thrust/sort.h>
 #include <thrust/unique.h>
 
+#include <map>
 #include <string>
 
 #include "backend/sim_backend.h"
@@ -70,6 +72,45 @@ static __global__ void contactKernel(GridView grid, const PartView* parts, int n
     for (int k = 0; k < kContactSumFloats; ++k) atomicAdd(dst + k, src[k]);
   }
 }
+
+/// Scratch memory for thrust's algorithms, kept between calls. thrust's default policy
+/// takes its temporary storage with cudaMalloc and gives it back with cudaFree, which waits
+/// for the device: binning every substep paid that several times.
+class ScratchAllocator {
+ public:
+  using value_type = char;
+  ScratchAllocator() = default;
+  ScratchAllocator(const ScratchAllocator&) = delete;
+  ScratchAllocator& operator=(const ScratchAllocator&) = delete;
+  ~ScratchAllocator() {
+    for (auto& [bytes, p] : free_) cudaFree(p);
+    for (auto& [p, bytes] : used_) cudaFree(p);
+  }
+  char* allocate(std::ptrdiff_t n) {
+    const size_t bytes = (size_t)n;
+    auto it = free_.lower_bound(bytes);  // the smallest kept block that fits
+    char* p = nullptr;
+    if (it != free_.end()) {
+      p = it->second;
+      used_.emplace(p, it->first);
+      free_.erase(it);
+      return p;
+    }
+    cudaCheck(cudaMalloc(&p, bytes), "cudaMalloc(thrust scratch)");
+    used_.emplace(p, bytes);
+    return p;
+  }
+  void deallocate(char* p, size_t) {
+    auto it = used_.find(p);
+    if (it == used_.end()) return;
+    free_.emplace(it->second, p);
+    used_.erase(it);
+  }
+
+ private:
+  std::multimap<size_t, char*> free_;  ///< size -> block
+  std::map<char*, size_t> used_;       ///< block -> size
+};
 
 struct CudaExec {
   static constexpr int kThreads = 256;
@@ -218,14 +259,15 @@ class CudaExec::Binning {
     grow(keys_, keysCap_, n);
     grow(order_, orderCap_, n);
     exec_.forEach(n, cuda_kernels::ParticleKeys{P, geo_, keys_});
-    thrust::sequence(thrust::device, order_, order_ + n);
-    thrust::stable_sort_by_key(thrust::device, keys_, keys_ + n, order_);
+    const auto policy = thrust::cuda::par(scratch_);
+    thrust::sequence(policy, order_, order_ + n);
+    thrust::stable_sort_by_key(policy, keys_, keys_ + n, order_);
     // occupied blocks, in place at the front of keys_
-    const size_t occupied = thrust::unique(thrust::device, keys_, keys_ + n) - keys_;
+    const size_t occupied = thrust::unique(policy, keys_, keys_ + n) - keys_;
     grow(candidates_, candidatesCap_, 8 * occupied);
     exec_.forEach(occupied, cuda_kernels::StencilBlocks{geo_, keys_, candidates_});
-    thrust::sort(thrust::device, candidates_, candidates_ + 8 * occupied);
-    size_t active = thrust::unique(thrust::device, candidates_, candidates_ + 8 * occupied) - candidates_;
+    thrust::sort(policy, candidates_, candidates_ + 8 * occupied);
+    size_t active = thrust::unique(policy, candidates_, candidates_ + 8 * occupied) - candidates_;
     uint32_t last = 0;
     if (active) exec_.copyToHost(&last, candidates_ + active - 1, sizeof last);
     if (active && last == 0xffffffffu) --active;  // drop the sentinel
@@ -267,6 +309,7 @@ class CudaExec::Binning {
   }
 
   CudaExec& exec_;
+  ScratchAllocator scratch_;
   GridGeometry geo_;
   size_t blocks_ = 0, count_ = 0, activeCount_ = 0;
   int32_t* blockSlot_ = nullptr;
