@@ -58,10 +58,7 @@ TEST_P(BackendMatch, CudaMatchesCpu) {
     Scene scene(s);
     const ParticleObjectId id = scene.addParticleObject(scenes::CressimBench::box(1.f));
     ShapeDesc press;
-    Geometry ball;
-    ball.type = GeometryType::Sphere;
-    ball.radius = 0.5f;
-    press.parts = {ball};
+    press.parts = {Geometry::sphere(0.5f)};
     press.pose.position = {0.f, 1.55f, 0.f};
     press.linearVelocity = {0.f, -1.f, 0.f};
     const ShapeId sphere = scene.addShape(press);  // kinematic: moves on at 1 m/s

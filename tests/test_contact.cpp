@@ -49,12 +49,7 @@ Quat aboutZ(double angle) {
   return q;
 }
 
-Geometry box(Vec3f halfExtents) {
-  Geometry g;
-  g.type = GeometryType::Box;
-  g.halfExtents = halfExtents;
-  return g;
-}
+Geometry box(Vec3f halfExtents) { return Geometry::box(halfExtents); }
 
 using test::BodySum;
 using test::sumOf;
@@ -348,10 +343,7 @@ DragResult runDrag(SceneSettings st, float drag) {
   d.material.poissonRatio = 0.3f;
   const ParticleObjectId tissue = scene.addParticleObject(d);
   ShapeDesc ball;
-  Geometry g;
-  g.type = GeometryType::Sphere;
-  g.radius = 0.015f;
-  ball.parts = {g};
+  ball.parts = {Geometry::sphere(0.015f)};
   ball.pose.position = {-0.05f, 0.f, 0.f};
   ball.linearVelocity = {4.f, 0.f, 0.f};
   ball.contact.mode = ContactMode::Frictional;
@@ -411,10 +403,7 @@ TEST_P(Contact, FarShapesChangeNothingAndNearOnesStillAct) {
   wall.pose.position = {0.5f, -0.5f, 0.f};  // 0.85 m beside the block
   const ShapeId wallId = withShapes.addShape(wall);
   ShapeDesc ball;
-  Geometry sphere;
-  sphere.type = GeometryType::Sphere;
-  sphere.radius = 0.1f;
-  ball.parts = {sphere};
+  ball.parts = {Geometry::sphere(0.1f)};
   ball.pose.position = {0.5f, 0.8f, 0.f};
   ball.mass = 1.f;
   ball.inertia = {0.004f, 0.004f, 0.004f};

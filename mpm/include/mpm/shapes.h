@@ -42,6 +42,19 @@ struct Geometry {
   int axis = 1;                            ///< 0 = x, 1 = y, 2 = z (Capsule, Cylinder)
   std::shared_ptr<const SignedDistanceGrid> sdf;  ///< (Mesh), in the part's frame
   Pose localPose;  ///< the part in the shape's frame
+
+  static Geometry box(Vec3f halfExtents) {
+    Geometry g;
+    g.type = GeometryType::Box;
+    g.halfExtents = halfExtents;
+    return g;
+  }
+  static Geometry sphere(float radius) {
+    Geometry g;
+    g.type = GeometryType::Sphere;
+    g.radius = radius;
+    return g;
+  }
 };
 
 /// How the grid and a shape interact where the material touches it.
