@@ -49,8 +49,6 @@ Quat aboutZ(double angle) {
   return q;
 }
 
-Geometry box(Vec3f halfExtents) { return Geometry::box(halfExtents); }
-
 using test::BodySum;
 using test::sumOf;
 
@@ -70,7 +68,7 @@ InclineResult runIncline(SceneSettings st, double theta, float mu) {
   Scene scene(st);
 
   ShapeDesc ramp;
-  ramp.parts = {box({test::Incline::kRampHalf[0], test::Incline::kRampHalf[1], test::Incline::kRampHalf[2]})};
+  ramp.parts = {Geometry::box({test::Incline::kRampHalf[0], test::Incline::kRampHalf[1], test::Incline::kRampHalf[2]})};
   ramp.pose.rotation = aboutZ(-theta);
   ramp.pose.position = incline.rampCentre();
   ramp.contact.mode = ContactMode::Frictional;
@@ -158,7 +156,7 @@ GraspResult runGrasp(SceneSettings st, ContactMode mode) {
   const ParticleObjectId tissue = scene.addParticleObject(d);
 
   ShapeDesc jaw;
-  jaw.parts = {box({0.05f, 0.01f, 0.05f})};
+  jaw.parts = {Geometry::box({0.05f, 0.01f, 0.05f})};
   jaw.pose.position = {0.f, bottom + 2 * half - 0.1f * dx + 0.01f, 0.f};
   jaw.contact.mode = mode;
   jaw.contact.band = dx;
@@ -222,7 +220,7 @@ PlateResult runPlate(SceneSettings st, float offsetCells, float halfCells, bool 
   Scene scene(st);
   const float plateY = 0.1f + offsetCells * dx, plateHalf = halfCells * dx;  // node layer at y = 0.1
   ShapeDesc plate;
-  plate.parts = {box({0.1f, plateHalf, 0.1f})};
+  plate.parts = {Geometry::box({0.1f, plateHalf, 0.1f})};
   plate.pose.position = {0.f, plateY, 0.f};
   plate.contact.mode = ContactMode::Frictional;
   plate.contact.friction = 0.3f;
@@ -245,7 +243,7 @@ PlateResult runPlate(SceneSettings st, float offsetCells, float halfCells, bool 
   ShapeId pusher{};
   if (pushed) {
     ShapeDesc p;
-    p.parts = {box({0.05f, 0.01f, 0.05f})};
+    p.parts = {Geometry::box({0.05f, 0.01f, 0.05f})};
     p.pose.position = {0.f, bottom + 2 * half + 0.01f + 0.1f * dx, 0.f};
     p.linearVelocity = {0.f, -pushSpeed, 0.f};
     p.contact.mode = ContactMode::Sticky;
@@ -399,7 +397,7 @@ TEST_P(Contact, FarShapesChangeNothingAndNearOnesStillAct) {
   Scene alone(s), withShapes(s);
   const ParticleObjectId a = addBlock(alone), b = addBlock(withShapes);
   ShapeDesc wall;
-  wall.parts = {box({0.1f, 0.5f, 0.5f})};
+  wall.parts = {Geometry::box({0.1f, 0.5f, 0.5f})};
   wall.pose.position = {0.5f, -0.5f, 0.f};  // 0.85 m beside the block
   const ShapeId wallId = withShapes.addShape(wall);
   ShapeDesc ball;

@@ -1,8 +1,8 @@
 #pragma once
 // CUDA execution backend: device memory, one launch helper, atomics for P2G, and
-// binning with CCCL (thrust) sorts. No GPU exists on the development or CI machines, so
-// everything here is compiled and linked there but run only where a device is present;
-// the kernel bodies it launches are the same functions the CPU tests exercise.
+// binning with CCCL (thrust) sorts. The development and CI machines have no GPU: this is
+// compiled and linked there and run only where a device is present (the whole suite passed
+// on an H100 once); the kernel bodies it launches are the ones the CPU tests exercise.
 #include <cuda_runtime.h>
 #include <thrust/execution_policy.h>
 #include <thrust/system/cuda/execution_policy.h>
@@ -99,6 +99,13 @@ class ScratchAllocator {
     cudaCheck(cudaMalloc(&p, bytes), "cudaMalloc(thrust scratch)");
     used_.emplace(p, bytes);
     return p;
+  }
+  /// Device bytes held, in use or kept.
+  size_t bytes() const {
+    size_t total = 0;
+    for (const auto& [bytes, p] : free_) total += bytes;
+    for (const auto& [p, bytes] : used_) total += bytes;
+    return total;
   }
   void deallocate(char* p, size_t) {
     auto it = used_.find(p);
@@ -294,7 +301,7 @@ class CudaExec::Binning {
   size_t count() const { return count_; }
   size_t memoryBytes() const {
     return blocks_ * 4 + (keysCap_ + orderCap_ + candidatesCap_ + activeCap_) * 4 +
-           nodesCap_ * sizeof(GridNode);
+           nodesCap_ * sizeof(GridNode) + scratch_.bytes();
   }
 
  private:
