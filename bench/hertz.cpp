@@ -44,6 +44,7 @@ struct Options {
   std::vector<int> resolutions{4, 6, 8};  ///< R / dx of the rows
   int threads = 0;                        ///< CPU threads; 0 = all
   mpm::Backend backend = mpm::Backend::Cpu;
+  bool neoHookean = false;  ///< the slab's law: decoupled Neo-Hookean instead of fixed corotated
   float loadingTransits = 20.f;           ///< time from d = 0 to 0.1 R [H / c_p]
   float slab = 4.f;                       ///< slab half-width and thickness [R]
   int sensitivity = 0;  ///< R / dx of the loading-rate and slab-size rows; 0: none
@@ -65,8 +66,9 @@ struct Row {
 /// the result is in the name).
 std::string runFile(const std::string& runs, const HertzIndentation::Setup& s) {
   char name[160];
-  std::snprintf(name, sizeof name, "/r%d_slab%.4gx%.4g_load%.4g_%s%s.csv", s.cellsPerRadius, s.slabHalfWidth,
+  std::snprintf(name, sizeof name, "/r%d_slab%.4gx%.4g_load%.4g_%s%s%s.csv", s.cellsPerRadius, s.slabHalfWidth,
                 s.slabThickness, s.loadingTransits, s.quarter ? "quarter" : "whole",
+                s.material == mpm::MaterialModel::NeoHookeanDecoupled ? "_neo" : "",
                 s.backend == mpm::Backend::Cuda ? "_cuda" : "");
   return runs + name;
 }
@@ -242,7 +244,8 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
   m << "Scene (`mpm::scenes::HertzIndentation`, defined in mpm/scenes/standard_scenes.h): a kinematic"
        " sphere, R = "
     << num(1e3 * kR, 0) << " mm, frictionless (Frictional, friction 0, band 0), pressed into a slab"
-       " of fixed-corotated material, E = "
+       " of "
+    << (opt.neoHookean ? "decoupled Neo-Hookean" : "fixed-corotated") << " material, E = "
     << num(HertzIndentation::kYoungsModulus / 1e3, 0) << " kPa, nu = " << num(HertzIndentation::kPoissonRatio, 2)
     << ", rho = " << num(HertzIndentation::kDensity, 0) << " kg/m^3, 8 particles per cell, "
     << num(2 * opt.slab, 1) << "R x " << num(2 * opt.slab, 1) << "R wide and H = " << num(opt.slab, 1)
@@ -318,6 +321,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--threads", opt.threads, "CPU threads; 0 = all")->check(CLI::NonNegativeNumber)->capture_default_str();
   addBackendOption(app, opt.backend);
+  app.add_flag("--neo-hookean", opt.neoHookean, "the slab in decoupled Neo-Hookean instead of fixed corotated");
   app.add_option("--loading-transits", opt.loadingTransits,
                  "loading time from d = 0 to 0.1 R, in P-wave transits of the slab")
       ->check(CLI::PositiveNumber)
@@ -343,6 +347,7 @@ int main(int argc, char** argv) {
   base.slabHalfWidth = base.slabThickness = opt.slab * (float)kR;
   base.loadingTransits = opt.loadingTransits;
   base.backend = opt.backend;
+  if (opt.neoHookean) base.material = mpm::MaterialModel::NeoHookeanDecoupled;
   base.threads = opt.threads;
   base.quarter = !opt.whole;
 

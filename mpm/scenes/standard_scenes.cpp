@@ -95,7 +95,7 @@ ParticleObjectDesc HertzIndentation::slab(const Setup& setup) {
   d.center = {setup.quarter ? side : 0.f, 0.5f * thick, setup.quarter ? side : 0.f};
   d.halfExtents = {side, 0.5f * thick, side};
   d.particlesPerCellAxis = 2;
-  d.material.model = MaterialModel::FixedCorotated;
+  d.material.model = setup.material;
   d.material.youngsModulus = kYoungsModulus;
   d.material.poissonRatio = kPoissonRatio;
   d.material.density = kDensity;

@@ -78,6 +78,8 @@ struct HertzIndentation {
     /// axis (DomainSettings::mirrorLower): the same motion at a quarter of the cost; the
     /// forces reported are still the whole slab's.
     bool quarter = true;
+    /// The slab's law; both have Hertz's linear limit, they part at finite strain.
+    MaterialModel material = MaterialModel::FixedCorotated;
     Backend backend = Backend::Cpu;
     int threads = 0;                       ///< CPU threads; 0 = all
   };
