@@ -24,6 +24,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "bench_options.h"
 #include "bench_report.h"
 #include "mpm/error.h"
 #include "mpm/scene.h"
@@ -36,12 +37,11 @@ using namespace mpm::bench;
 using scenes::SeedCylinder;
 using Loading = SeedCylinder::Loading;
 
-const std::vector<std::string> kSolverNames{"Mtled", "MlsMpm", "StandardMpm", "PbMpm"};
 const std::vector<std::string> kCaseNames{"compression-bonded", "compression-slip", "extension-bonded",
                                           "shear-bonded"};
 
 struct Options {
-  std::vector<std::string> solvers = kSolverNames;
+  std::vector<std::string> solvers{"Mtled", "MlsMpm", "StandardMpm", "PbMpm"};
   std::vector<std::string> cases = kCaseNames;
   /// H / dx: cells (MPM) or node intervals (MTLED) over the height; 10, 14, 20 are
   /// dx = 1, 0.714, 0.5 cm. Whole numbers keep both plate faces on node layers and the
@@ -53,13 +53,6 @@ struct Options {
   std::string referenceDir = std::string(MPM_SOURCE_DIR) + "/tests/reference";
   std::string out = "bench/results/accuracy";
 };
-
-SolverType solverType(const std::string& name) {
-  return name == "MlsMpm"        ? SolverType::MlsMpm
-         : name == "StandardMpm" ? SolverType::StandardMpm
-         : name == "PbMpm"       ? SolverType::PbMpm
-                                 : SolverType::Mtled;
-}
 
 /// One of the four experiments.
 struct Case {
@@ -132,7 +125,7 @@ Row runOne(const Options& opt, const std::string& solver, const Case& c, int cel
   row.caseName = c.name;
   row.resolution = resolutionCm;
   SeedCylinder::Setup setup;
-  setup.solver = solverType(solver);
+  setup.solver = solverTypes().at(solver);
   setup.resolution = resolutionCm / 100;
   setup.ends = c.ends;
   setup.threads = opt.threads;
@@ -256,10 +249,7 @@ std::string curvesTable(const std::vector<Row>& rows) {
 int main(int argc, char** argv) {
   Options opt;
   CLI::App app{"Seed 004 cylinder: force error against run time, every solver at three resolutions"};
-  app.add_option("--solvers", opt.solvers, "solvers to run")
-      ->delimiter(',')
-      ->check(CLI::IsMember(kSolverNames))
-      ->capture_default_str();
+  addSolversOption(app, opt.solvers);
   app.add_option("--cases", opt.cases, "experiments to run")
       ->delimiter(',')
       ->check(CLI::IsMember(kCaseNames))

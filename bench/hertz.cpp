@@ -27,7 +27,7 @@
 #include "mpm/error.h"
 #include "mpm/output.h"
 #include "mpm/scene.h"
-#include "backend_option.h"
+#include "bench_options.h"
 #include "bench_report.h"
 #include "scenes/standard_scenes.h"
 

@@ -24,6 +24,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "bench_options.h"
 #include "bench_report.h"
 #include "mpm/error.h"
 #include "mpm/scene.h"
@@ -48,16 +49,6 @@ struct Options {
   int threads = 0;
   std::string out = "bench/results/stability";
 };
-
-std::string solverName(SolverType s) {
-  switch (s) {
-    case SolverType::MlsMpm: return "MlsMpm";
-    case SolverType::StandardMpm: return "StandardMpm";
-    case SolverType::PbMpm: return "PbMpm";
-    case SolverType::Mtled: return "Mtled";
-  }
-  return "?";
-}
 
 /// Outcome of one run.
 struct Row {
@@ -429,10 +420,7 @@ std::string csvTable(const std::vector<Row>& rows) {
 int main(int argc, char** argv) {
   Options opt;
   CLI::App app{"Stability stress tests: step sweep, near-incompressible, 80 % compression, impact, stiffness ratio"};
-  app.add_option("--solvers", opt.solvers, "solvers to run: MlsMpm, StandardMpm, PbMpm, Mtled")
-      ->delimiter(',')
-      ->check(CLI::IsMember({"MlsMpm", "StandardMpm", "PbMpm", "Mtled"}))
-      ->capture_default_str();
+  addSolversOption(app, opt.solvers);
   app.add_option("--threads", opt.threads, "CPU threads; 0 = all")->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--out", opt.out, "path stem: writes <out>.md and <out>.csv")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
@@ -452,10 +440,7 @@ int main(int argc, char** argv) {
     write();
   };
   for (const std::string& name : opt.solvers) {
-    const SolverType solver = name == "MlsMpm"        ? SolverType::MlsMpm
-                              : name == "StandardMpm" ? SolverType::StandardMpm
-                              : name == "PbMpm"       ? SolverType::PbMpm
-                                                      : SolverType::Mtled;
+    const SolverType solver = solverTypes().at(name);
     SweepResult s{solver, 0, 0};
     for (Row& r : sweep(solver, opt.threads, s.largestStable, s.cap)) rows.push_back(std::move(r));
     sweeps.push_back(s);

@@ -39,7 +39,7 @@
 #include "mpm/output.h"
 #include "mpm/scene.h"
 #include "bandwidth.h"
-#include "backend_option.h"
+#include "bench_options.h"
 #include "bench_report.h"
 #include "scenes/standard_scenes.h"
 

@@ -23,8 +23,12 @@ inline std::string solverName(SolverType t) {
   return "?";
 }
 
-/// The three solvers, for INSTANTIATE_TEST_SUITE_P (alone or inside ::testing::Combine).
+/// The three grid solvers, for INSTANTIATE_TEST_SUITE_P (alone or inside ::testing::Combine).
 inline auto allSolvers() { return ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::PbMpm); }
+/// The three grid solvers and MTLED, for suites every solver can run.
+inline auto everySolver() {
+  return ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::PbMpm, SolverType::Mtled);
+}
 
 /// Test-name generator for a suite parameterised by the solver alone: "PbMpm".
 inline auto solverParamName() {

@@ -79,8 +79,7 @@ TEST_P(BackendMatch, CudaMatchesCpu) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, BackendMatch,
-                         ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::PbMpm,
-                                           SolverType::Mtled),
+                         test::everySolver(),
                          test::solverParamName());
 
 }  // namespace

@@ -177,8 +177,7 @@ TEST_P(SeedCylinderConservation, AngularMomentumOfA1HzSpinOver20s) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, SeedCylinderConservation,
-                         ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::PbMpm,
-                                           SolverType::Mtled),
+                         test::everySolver(),
                          test::solverParamName());
 
 }  // namespace

@@ -130,8 +130,7 @@ TEST_P(Stability, StableRunKeepsItsEnergy) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, Stability,
-                         ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::PbMpm,
-                                           SolverType::Mtled),
+                         test::everySolver(),
                          test::solverParamName());
 
 // The account's bookkeeping: a block falling freely for 0.2 s gains the kinetic energy

@@ -198,21 +198,13 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
   }
   /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
   /// bodies: gravity for the substep (if `bodyGravity`), the predicted body velocity, the
-  /// projection of the nodes, then the bodies' velocities from what they received.
+  /// projection of the nodes, then the bodies' velocities from what they received. With
+  /// every part out of reach the passes get no parts: they only zero the bodies' sums, and
+  /// dynamic bodies feel gravity alone.
   void exchangeContact(float dt, bool bodyGravity) {
-    const int nParts = shapes_.partCount(), nBodies = shapes_.bodyCount();
-    if (nParts == 0) return;
+    if (shapes_.partCount() == 0) return;
+    const int nParts = partCount(), nBodies = shapes_.bodyCount();
     const auto t0 = Clock::now();
-    if (!shapesInReach_) {  // no node can touch a part: dynamic bodies only feel gravity
-      if (shapes_.anyDynamic()) {
-        shapes_.clearStepSums();
-        if (bodyGravity) shapes_.accelerate(dt);
-        shapes_.predict();  // with nothing received: V' = V
-        shapes_.settle();
-      }
-      timings.contact += seconds(t0);
-      return;
-    }
     if (shapes_.anyDynamic()) {
       if (bodyGravity) shapes_.accelerate(dt);
       exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), 0);

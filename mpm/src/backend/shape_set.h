@@ -47,11 +47,6 @@ struct SettleBodies {
   }
 };
 
-struct ClearSums {
-  ContactSums* sums;
-  MPM_HD void operator()(size_t i) const { sums[i] = ContactSums{}; }
-};
-
 struct MoveBodies {
   BodyView* bodies;
   float dt;
@@ -97,8 +92,6 @@ class ShapeSet {
     if (parts_.size() == 0) return;
     exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), margin});
   }
-  /// Zero step sums, for a substep in which no node could touch a part.
-  void clearStepSums() { exec_.forEach(bodies_.size(), kernels::ClearSums{stepSums_.data()}); }
   /// Gravity of the dynamic bodies over a substep (before the contact that takes it back).
   void accelerate(float dt) { exec_.forEach(bodies_.size(), kernels::AccelerateBodies{bodies_.data(), dt}); }
   /// Dynamic bodies' velocities predicted from a measuring pass's stepSums().

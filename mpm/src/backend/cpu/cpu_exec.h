@@ -259,9 +259,12 @@ struct CpuExec {
     /// Grid contact with rigid parts, block by block: a part is tested against a block's
     /// bounds once, and only then against its nodes. Each block sums its momentum
     /// exchange per body on its own; the blocks' sums are added in slot order, so the
-    /// result does not depend on the thread count.
+    /// result does not depend on the thread count. `out` is zeroed first; with no parts
+    /// (none in reach) that is all.
     void contactPass(const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                      ContactSums* out, int pass, int threads) {
+      for (int b = 0; b < nBodies; ++b) out[b] = ContactSums{};
+      if (nParts == 0) return;
       const GridView grid = gridView();
       const size_t nActive = active_.size();
       blockSums_.resize(nActive * nBodies);
@@ -294,7 +297,6 @@ struct CpuExec {
         }
         touched_[slot] = any;
       }
-      for (int b = 0; b < nBodies; ++b) out[b] = ContactSums{};
       for (size_t slot = 0; slot < nActive; ++slot) {
         if (!touched_[slot]) continue;
         for (int b = 0; b < nBodies; ++b) {

@@ -331,7 +331,7 @@ inline void CudaExec::contactPass(Binning& b, const PartView* parts, int nParts,
                                   int nBodies, ContactSums* out, int pass) {
   cudaCheck(cudaMemsetAsync(out, 0, nBodies * sizeof(ContactSums)), "clear contact sums");
   const size_t nodes = (size_t)b.gridView().activeCount * kBlockNodes;
-  if (nodes == 0) return;
+  if (nodes == 0 || nParts == 0) return;
   contactKernel<<<blocksFor(nodes), kThreads>>>(b.gridView(), parts, nParts, bodies, out, pass);
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
