@@ -194,5 +194,66 @@ TEST(Validation, ChangingSceneDuringStepIsRefused) {
   live.expectStillUsable();
 }
 
+// The grid's block tables cover the whole domain: a domain far larger than dx is refused
+// up front with the memory it would take, not by an overflow or an allocation failure.
+TEST(Validation, GridTooLargeForMemoryIsRefused) {
+  for (float size : {100.f, 16.f}) {  // 100 m: beyond 16384 cells an axis; 16 m: 16000
+    SceneSettings s = goodSettings();
+    s.domain.lower = {0.f, 0.f, 0.f};
+    s.domain.upper = {size, size, size};
+    s.dx = 0.001f;
+    try {
+      Scene scene(s);
+      ADD_FAILURE() << "a " << size << " m domain at dx = 1 mm accepted";
+    } catch (const InvalidArgument& e) {
+      EXPECT_EQ(e.field(), "SceneSettings.dx") << e.what();
+      EXPECT_NE(std::string(e.what()).find(" GB"), std::string::npos) << e.what();
+    }
+  }
+}
+
+// The particle count is estimated before any particle is made.
+TEST(Validation, ParticleCountIsBounded) {
+  LiveScene live;
+  ParticleObjectDesc d = goodBlock();
+  d.particlesPerCellAxis = 1000;  // 6.4e10 particles in a 0.2 m box at dx = 0.05
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.particlesPerCellAxis", "1000");
+  d = goodBlock();
+  d.particleSpacing = 1e-5f;
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.particleSpacing", "1e-05");
+  live.expectStillUsable();
+}
+
+// An enum value outside its list is refused, not read as another choice.
+TEST(Validation, EnumValuesOutsideTheirListAreRefused) {
+  const auto settingsRejected = [](auto change, const std::string& field, const char* value = "99") {
+    SceneSettings s = goodSettings();
+    change(s);
+    expectRejected([&] { Scene scene(s); }, field, value);
+  };
+  settingsRejected([](SceneSettings& s) { s.solver = static_cast<SolverType>(99); }, "SceneSettings.solver");
+  settingsRejected([](SceneSettings& s) { s.domain.wallMode = static_cast<WallMode>(99); },
+                   "SceneSettings.domain.wallMode");
+  settingsRejected([](SceneSettings& s) { s.backend = static_cast<Backend>(99); }, "SceneSettings.backend");
+  settingsRejected([](SceneSettings& s) { s.backend = static_cast<Backend>(-1); }, "SceneSettings.backend", "-1");
+
+  LiveScene live;
+  ParticleObjectDesc d = goodBlock();
+  d.material.model = static_cast<MaterialModel>(99);
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.material.model", "99");
+  d = goodBlock();
+  d.primitive = static_cast<PrimitiveType>(99);
+  expectRejected([&] { live.scene.addParticleObject(d); }, "ParticleObjectDesc.primitive", "99");
+  ShapeDesc shape;
+  shape.parts = {Geometry::sphere(0.05f)};
+  shape.pose.position = {0.3f, 0.8f, 0.3f};
+  shape.parts[0].type = static_cast<GeometryType>(99);
+  expectRejected([&] { live.scene.addShape(shape); }, "ShapeDesc.parts[0].type", "99");
+  shape.parts[0].type = GeometryType::Sphere;
+  shape.contact.mode = static_cast<ContactMode>(99);
+  expectRejected([&] { live.scene.addShape(shape); }, "ShapeDesc.contact.mode", "99");
+  live.expectStillUsable();
+}
+
 }  // namespace
 }  // namespace mpm

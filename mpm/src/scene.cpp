@@ -108,6 +108,7 @@ struct ObjectRecord {
   bool alive = false;
   size_t particles = 0;
   MaterialParams material;
+  float youngsModulus = 0;  ///< as given (for messages)
   float maxInitialSpeed = 0;
 };
 
@@ -202,6 +203,7 @@ class SceneImpl {
     // cells' corners, so the outermost ones lie on the bounds (the faces where boundary
     // conditions act), the spacing stretched to fit the bounds exactly
     const bool meshless = solverTraits(settings.solver).meshless;
+    checkParticleBudget(d, h, hi - lo, meshless);
     int n[3];
     Vec3f step;
     for (int a = 0; a < 3; ++a) {
@@ -270,6 +272,7 @@ class SceneImpl {
     rec.alive = true;
     rec.particles = add.size();
     rec.material = mat;
+    rec.youngsModulus = d.material.youngsModulus;
     rec.maxInitialSpeed = maxSpeed;
     maxParticleSpeed = std::max(maxParticleSpeed, maxSpeed);
     uploadMaterials();
@@ -277,6 +280,29 @@ class SceneImpl {
     backend->append(add);
     if (meshless) backend->appendIntegrationCells(slot, cells);
     return {slot, rec.generation};
+  }
+
+  /// Most particles a scene holds: 11 GB of particle state (kParticleStateBytes each) on
+  /// the device and as much again on the host while they are made; their indices are 32-bit.
+  static constexpr double kMaxParticles = 1e8;
+
+  /// Refuses, before any particle is made, an object whose lattice of spacing h over its
+  /// bounds `size` (and, meshless, its integration cells) would pass kMaxParticles.
+  void checkParticleBudget(const ParticleObjectDesc& d, float h, Vec3f size, bool meshless) const {
+    double lattice = 1;
+    for (int a = 0; a < 3; ++a) lattice *= std::round((double)size[a] / h) + (meshless ? 1 : 0);
+    const double cells = meshless ? lattice * std::pow((double)settings.mtled.integrationCellsPerSpacing, 3) : 0;
+    const double total = (double)backend->particleCount() + std::max(lattice, cells);
+    if (total <= kMaxParticles) return;
+    std::ostringstream why;
+    why.precision(3);
+    why << "gives a particle spacing of " << h << " m: about " << lattice << " particles in the object's bounds";
+    if (meshless) why << " and " << cells << " integration cells";
+    why << ", " << lattice * kParticleStateBytes / 1e9 << " GB of particle state; a scene holds at most "
+        << kMaxParticles << " (it has " << backend->particleCount() << ")";
+    if (d.particleSpacing > 0.f)
+      throw InvalidArgument("ParticleObjectDesc.particleSpacing", validate::show(d.particleSpacing), why.str());
+    throw InvalidArgument("ParticleObjectDesc.particlesPerCellAxis", std::to_string(d.particlesPerCellAxis), why.str());
   }
 
   void remove(ParticleObjectId id) {
@@ -314,12 +340,43 @@ class SceneImpl {
     return dtMax;
   }
 
-  /// Substep count for an advance of dt, unless the user fixed the count.
+  /// Most substeps one advance takes: a day of substeps at 10 ms each. More means a
+  /// material, speed or spacing far from what the scene can step (E = 1e30 Pa asks for
+  /// 2.4e12 substeps in a millisecond); an int count would also overflow.
+  static constexpr float kMaxSubsteps = 1e7f;
+
+  /// Substep count for an advance of dt, unless the user fixed the count. Throws
+  /// InvalidArgument, before anything changes, when that passes kMaxSubsteps.
   int substepCount(float dt) {
     if (settings.substeps.fixedSubsteps > 0) return settings.substeps.fixedSubsteps;
     const float dtMax = maxSubstep();
-    if (!(dtMax < std::numeric_limits<float>::infinity())) return 1;
-    return std::max(1, (int)std::ceil(dt / dtMax - 1e-5f));
+    if (dtMax == std::numeric_limits<float>::infinity()) return 1;
+    const float n = dt / dtMax;  // NaN or infinite for a zero or NaN bound: refused
+    if (!(n <= kMaxSubsteps)) refuseSubsteps(dt, dtMax);
+    return std::max(1, (int)std::ceil(n - 1e-5f));
+  }
+
+  /// Names what bounds the substep: the stiffest material, the solver's own step, speeds.
+  [[noreturn]] void refuseSubsteps(float dt, float dtMax) {
+    std::ostringstream s;
+    s.precision(3);
+    s << "needs " << (double)dt / dtMax << " substeps of at most " << dtMax << " s, more than the limit of "
+      << kMaxSubsteps << " an advance takes:";
+    size_t stiffest = objects.size();
+    for (size_t i = 0; i < objects.size(); ++i)
+      if (objects[i].alive && (stiffest == objects.size() ||
+                               pWaveSpeed(objects[i].material) > pWaveSpeed(objects[stiffest].material)))
+        stiffest = i;
+    if (stiffest < objects.size())
+      s << " object " << stiffest << "'s material (youngsModulus = " << validate::show(objects[stiffest].youngsModulus)
+        << " Pa, density = " << objects[stiffest].material.density << " kg/m^3) carries elastic waves at "
+        << pWaveSpeed(objects[stiffest].material) << " m/s;";
+    const float own = backend->stableTimeStep();
+    if (own < std::numeric_limits<float>::infinity()) s << " the solver's own stable step is " << own << " s;";
+    s << " the fastest particle moves at " << maxParticleSpeed << " m/s (SceneSettings.substeps.cflNumber = "
+      << settings.substeps.cflNumber << ", dx = " << settings.dx
+      << " m). Use a softer material or a larger dx, or advance by less at a time";
+    throw InvalidArgument("Scene::advance dt", validate::show(dt), s.str());
   }
 
   StepReport run(float dt, int substeps) {
@@ -606,7 +663,10 @@ float Scene::maxSubstep() {
   impl_->requireIdle("maxSubstep");
   return impl_->maxSubstep();
 }
-double Scene::time() const { return impl_->time; }
+double Scene::time() const {
+  impl_->requireIdle("time");
+  return impl_->time;
+}
 Backend Scene::backend() const { return impl_->resolved; }
 const SceneSettings& Scene::settings() const { return impl_->settings; }
 size_t Scene::particleCount() const { return impl_->backend->particleCount(); }
@@ -675,8 +735,18 @@ ObjectSummary Scene::summary(ParticleObjectId id) const {
   return s;
 }
 
-StageTimings Scene::timings() const { return impl_->backend->timings; }
-void Scene::resetTimings() { impl_->backend->timings = StageTimings{}; }
-size_t Scene::memoryBytes() const { return impl_->backend->memoryBytes(); }
+// the worker thread writes these during a step: read only between steps, like the rest
+StageTimings Scene::timings() const {
+  impl_->requireIdle("timings");
+  return impl_->backend->timings;
+}
+void Scene::resetTimings() {
+  impl_->requireIdle("resetTimings");
+  impl_->backend->timings = StageTimings{};
+}
+size_t Scene::memoryBytes() const {
+  impl_->requireIdle("memoryBytes");
+  return impl_->backend->memoryBytes();
+}
 
 }  // namespace mpm

@@ -106,7 +106,8 @@ class Scene {
   /// substeps unless fixedSubsteps is set. Not during a step.
   float maxSubstep();
 
-  /// Simulated time since creation [s].
+  /// Simulated time since creation [s]. Not during a step (throws Error, as every call
+  /// that reads or changes what a step writes, until fetchResults()).
   double time() const;
   /// The backend actually in use (never Auto).
   Backend backend() const;
@@ -123,10 +124,11 @@ class Scene {
   /// Mass, centre of mass, momenta and kinetic energy of one object.
   ObjectSummary summary(ParticleObjectId id) const;
 
-  /// Accumulated per-stage times, and resetting them.
+  /// Accumulated per-stage times, and resetting them. Not during a step.
   StageTimings timings() const;
   void resetTimings();
-  /// Bytes of memory the scene holds for particles and grid (host or device).
+  /// Bytes of memory the scene holds for particles and grid (host or device). Not during a
+  /// step.
   size_t memoryBytes() const;
 
  private:

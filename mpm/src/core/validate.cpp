@@ -39,7 +39,16 @@ void atLeast(const std::string& field, int v, int lo) {
   if (v < lo) throw InvalidArgument(field, std::to_string(v), "must be >= " + std::to_string(lo));
 }
 
+void enumerator(const std::string& field, int v, int count, const char* type) {
+  if (v < 0 || v >= count)
+    throw InvalidArgument(field, std::to_string(v),
+                          std::string("is not a ") + type + " (0 .. " + std::to_string(count - 1) + ")");
+}
+
 void sceneSettings(const SceneSettings& s) {
+  enumerator("SceneSettings.solver", s.solver, SolverType::Mtled, "SolverType");
+  enumerator("SceneSettings.backend", s.backend, Backend::Cuda, "Backend");
+  enumerator("SceneSettings.domain.wallMode", s.domain.wallMode, WallMode::Separate, "WallMode");
   finite("SceneSettings.domain.lower", s.domain.lower);
   finite("SceneSettings.domain.upper", s.domain.upper);
   positive("SceneSettings.dx", s.dx);
@@ -47,15 +56,31 @@ void sceneSettings(const SceneSettings& s) {
   if (!(size.x > 0.f && size.y > 0.f && size.z > 0.f))
     throw InvalidArgument("SceneSettings.domain.upper", show(s.domain.upper),
                           "must exceed domain.lower " + show(s.domain.lower) + " on every axis");
+  // The grid keeps dense tables over all its 4^3-node blocks (block -> active slot, and
+  // the binning's counts: 8 bytes a block on the CPU, 4 on the GPU) before any particle,
+  // and indexes blocks with 32-bit ints: bound the total, not only each axis.
+  double blocks = 1;
   for (int a = 0; a < 3; ++a) {
     const double cells = std::ceil(size[a] / s.dx);
     if (cells < 4)
       throw InvalidArgument("SceneSettings.dx", show(s.dx),
                             "leaves fewer than 4 cells across the domain");
-    if (cells > 16384)
+    blocks *= std::ceil((cells + 1) / 4);
+  }
+  constexpr double kMaxBlocks = 1 << 28, kBytesPerBlock = 8;
+  if (blocks > kMaxBlocks) {
+    std::ostringstream why;
+    why.precision(3);
+    why << "gives " << blocks << " grid blocks of 4^3 nodes over the domain " << show(s.domain.lower) << " - "
+        << show(s.domain.upper) << ": their tables alone would take " << blocks * kBytesPerBlock / 1e9
+        << " GB of memory, more than the limit of " << kMaxBlocks * kBytesPerBlock / 1e9 << " GB ("
+        << kMaxBlocks << " blocks); use a larger dx or a smaller domain";
+    throw InvalidArgument("SceneSettings.dx", show(s.dx), why.str());
+  }
+  for (int a = 0; a < 3; ++a)
+    if (std::ceil(size[a] / s.dx) > 16384)
       throw InvalidArgument("SceneSettings.dx", show(s.dx),
                             "gives more than 16384 cells along one axis of the domain");
-  }
   atLeast("SceneSettings.domain.wallThickness", s.domain.wallThickness, 1);
   for (int a = 0; a < 3; ++a)
     if (s.domain.mirrorLower[a] && s.solver == SolverType::Mtled)
@@ -72,9 +97,6 @@ void sceneSettings(const SceneSettings& s) {
   if (s.energyCheck.noiseSpeed < 0.f)
     throw InvalidArgument("SceneSettings.energyCheck.noiseSpeed", show(s.energyCheck.noiseSpeed), "must be >= 0");
   atLeast("SceneSettings.cpuThreads", s.cpuThreads, 0);
-  const int solver = static_cast<int>(s.solver);
-  if (solver < 0 || solver > static_cast<int>(SolverType::Mtled))
-    throw InvalidArgument("SceneSettings.solver", std::to_string(solver), "is not a SolverType");
   const float flip = s.standardMpm.flipBlend;
   if (!(flip >= 0.f && flip <= 1.f))
     throw InvalidArgument("SceneSettings.standardMpm.flipBlend", show(flip), "must lie in [0, 1]");
@@ -111,6 +133,7 @@ void mtledSettings(const MtledSettings& m) {
 }
 
 void material(const std::string& prefix, const Material& m) {
+  enumerator(prefix + ".model", m.model, MaterialModel::NeoHookeanDecoupled, "MaterialModel");
   positive(prefix + ".youngsModulus", m.youngsModulus);
   finite(prefix + ".poissonRatio", m.poissonRatio);
   if (!(m.poissonRatio > -1.f && m.poissonRatio < 0.5f))
@@ -119,6 +142,7 @@ void material(const std::string& prefix, const Material& m) {
 }
 
 void particleObjectDesc(const ParticleObjectDesc& d) {
+  enumerator("ParticleObjectDesc.primitive", d.primitive, PrimitiveType::Mesh, "PrimitiveType");
   finite("ParticleObjectDesc.center", d.center);
   if (d.primitive == PrimitiveType::Box) positive("ParticleObjectDesc.halfExtents", d.halfExtents);
   if (d.primitive == PrimitiveType::Sphere || d.primitive == PrimitiveType::Cylinder)

@@ -19,6 +19,13 @@ void positive(const std::string& field, float v);
 void positive(const std::string& field, Vec3f v);
 /// Integer >= lo.
 void atLeast(const std::string& field, int v, int lo);
+/// An enum's value is one of its `count` enumerators 0 .. count - 1 (a cast from an int
+/// may hold any value, which a switch would silently read as some other choice).
+void enumerator(const std::string& field, int v, int count, const char* type);
+template <class Enum>
+void enumerator(const std::string& field, Enum v, Enum last, const char* type) {
+  enumerator(field, static_cast<int>(v), static_cast<int>(last) + 1, type);
+}
 
 void sceneSettings(const SceneSettings& s);
 void mtledSettings(const MtledSettings& m);

@@ -61,6 +61,7 @@ void validateShapeDesc(const ShapeDesc& d) {
     const std::string f = "ShapeDesc.parts[" + std::to_string(i) + "]";
     validate::finite(f + ".localPose.position", g.localPose.position);
     validateQuat(f + ".localPose.rotation", g.localPose.rotation);
+    validate::enumerator(f + ".type", g.type, GeometryType::Mesh, "GeometryType");
     switch (g.type) {
       case GeometryType::Box: validate::positive(f + ".halfExtents", g.halfExtents); break;
       case GeometryType::Sphere: validate::positive(f + ".radius", g.radius); break;
@@ -81,6 +82,7 @@ void validateShapeDesc(const ShapeDesc& d) {
   }
   validate::finite("ShapeDesc.centerOfMass", d.centerOfMass);
   validateShapeState({d.pose, d.linearVelocity, d.angularVelocity});
+  validate::enumerator("ShapeDesc.contact.mode", d.contact.mode, ContactMode::Bonded, "ContactMode");
   validate::finite("ShapeDesc.contact.friction", d.contact.friction);
   if (d.contact.friction < 0.f)
     throw InvalidArgument("ShapeDesc.contact.friction", validate::show(d.contact.friction), "must be >= 0");
