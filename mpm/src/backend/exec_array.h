@@ -44,4 +44,15 @@ class ExecArray {
   size_t size_ = 0;
 };
 
+/// Owns a backend's Exec. A solver system derives from it first, ahead of ShapeBackend:
+/// base classes are built in order before any member and destroyed in reverse after them,
+/// so the Exec exists before the shapes and arrays that bind to it and outlives them.
+template <class Exec>
+class ExecOwner {
+ protected:
+  template <class... Args>
+  explicit ExecOwner(Args&&... args) : exec_(std::forward<Args>(args)...) {}
+  mutable Exec exec_;
+};
+
 }  // namespace mpm

@@ -56,14 +56,15 @@ struct PermutesInPlace<Exec, std::void_t<decltype(Exec::kPermuteInPlace)>>
     : std::bool_constant<Exec::kPermuteInPlace> {};
 
 template <class Exec, class Method>
-class ParticleGridSystem final : public ShapeBackend<Exec> {
+class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
+  using ExecOwner<Exec>::exec_;
   using ShapeBackend<Exec>::shapes_;
   using ShapeBackend<Exec>::timings;
 
  public:
   template <class... Args>
   ParticleGridSystem(const GridGeometry& geo, Args&&... execArgs)
-      : ShapeBackend<Exec>(exec_), exec_(std::forward<Args>(execArgs)...), geo_(geo), bins_(exec_, geo) {
+      : ExecOwner<Exec>(std::forward<Args>(execArgs)...), ShapeBackend<Exec>(this->exec_), geo_(geo), bins_(exec_, geo) {
 #define MPM_BIND(type, name) name##_.bind(&exec_);
     MPM_PARTICLE_FIELDS(MPM_BIND)
 #undef MPM_BIND
@@ -262,7 +263,6 @@ class ParticleGridSystem final : public ShapeBackend<Exec> {
     return v;
   }
 
-  mutable Exec exec_;
   GridGeometry geo_;
   typename Exec::Binning bins_;
   size_t count_ = 0;

@@ -168,7 +168,8 @@ class ShapeBackend : public SimBackend {
   std::vector<ContactSums> takeImpulses() override { return shapes_.takeImpulses(); }
 
  protected:
-  /// `exec` may still be unconstructed (a member of the derived backend): it is only bound.
+  /// `exec` must outlive the shapes (the solver systems hold it in ExecOwner, a base
+  /// constructed before this one).
   explicit ShapeBackend(Exec& exec) : shapes_(exec) {}
   ShapeSet<Exec> shapes_;
 };

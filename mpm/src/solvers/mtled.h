@@ -183,14 +183,15 @@ struct MtledFollow {
 }  // namespace kernels
 
 template <class Exec>
-class MtledSystem final : public ShapeBackend<Exec> {
+class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
+  using ExecOwner<Exec>::exec_;
   using ShapeBackend<Exec>::shapes_;
   using ShapeBackend<Exec>::timings;
 
  public:
   template <class... Args>
   explicit MtledSystem(const MtledSettings& settings, Args&&... execArgs)
-      : ShapeBackend<Exec>(exec_), exec_(std::forward<Args>(execArgs)...), settings_(settings) {
+      : ExecOwner<Exec>(std::forward<Args>(execArgs)...), ShapeBackend<Exec>(this->exec_), settings_(settings) {
     for (auto* a : {&x_, &v_, &X_}) a->bind(&exec_);
     for (auto* a : {&carrier_, &termStart_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
     mass_.bind(&exec_);
@@ -404,7 +405,6 @@ class MtledSystem final : public ShapeBackend<Exec> {
     exec_.forEach(nBodies, kernels::MtledSumContacts{nodeSums_.data(), nNodes, nBodies, shapes_.stepSums()});
   }
 
-  mutable Exec exec_;
   MtledSettings settings_;
   // host side: the nodes as added (motion current only while dirty_), reference
   // positions, integration cells, materials; the model built from them
