@@ -11,6 +11,8 @@
 #include <mutex>
 #include <sstream>
 #include <thread>
+#include <tuple>
+#include <utility>
 
 #include "backend/sim_backend.h"
 #include "core/validate.h"
@@ -265,6 +267,17 @@ class SceneImpl {
     if (meshless) {
       const float cellSize = h / settings.mtled.integrationCellsPerSpacing;
       cells = integrationCells([&](Vec3f x) { return inObject(x - d.center); }, d.center + lo, d.center + hi, cellSize);
+      // the solver's model of the object (MTLED: support domains, moment matrices) is
+      // checked now, so its errors come from here and not from the next advance
+      std::vector<MaterialParams> table = materialTable();
+      table.resize(std::max<size_t>(table.size(), slot + 1));
+      table[slot] = mat;
+      try {
+        backend->checkObject(slot, add, cells, table);
+      } catch (const Error& e) {
+        const auto [field, value] = spacingField(d);
+        throw InvalidArgument(field, value, std::string("cannot be modelled: ") + e.what());
+      }
     }
 
     if (slot == objects.size()) objects.emplace_back();
@@ -300,9 +313,14 @@ class SceneImpl {
     if (meshless) why << " and " << cells << " integration cells";
     why << ", " << lattice * kParticleStateBytes / 1e9 << " GB of particle state; a scene holds at most "
         << kMaxParticles << " (it has " << backend->particleCount() << ")";
-    if (d.particleSpacing > 0.f)
-      throw InvalidArgument("ParticleObjectDesc.particleSpacing", validate::show(d.particleSpacing), why.str());
-    throw InvalidArgument("ParticleObjectDesc.particlesPerCellAxis", std::to_string(d.particlesPerCellAxis), why.str());
+    const auto [field, value] = spacingField(d);
+    throw InvalidArgument(field, value, why.str());
+  }
+
+  /// The field that sets an object's particle spacing, and its value.
+  static std::pair<std::string, std::string> spacingField(const ParticleObjectDesc& d) {
+    if (d.particleSpacing > 0.f) return {"ParticleObjectDesc.particleSpacing", validate::show(d.particleSpacing)};
+    return {"ParticleObjectDesc.particlesPerCellAxis", std::to_string(d.particlesPerCellAxis)};
   }
 
   void remove(ParticleObjectId id) {
@@ -317,11 +335,13 @@ class SceneImpl {
     objects[id.index].particles = 0;
   }
 
-  void uploadMaterials() {
+  /// Materials by object slot.
+  std::vector<MaterialParams> materialTable() const {
     std::vector<MaterialParams> table(objects.size());
     for (size_t i = 0; i < objects.size(); ++i) table[i] = objects[i].material;
-    backend->setMaterials(table);
+    return table;
   }
+  void uploadMaterials() { backend->setMaterials(materialTable()); }
 
   /// Longest substep: the CFL bound on the fastest elastic wave plus the fastest particle
   /// or shape, and the solver's own stable step.
@@ -601,12 +621,41 @@ class SceneImpl {
     if (energy)
       for (const ShapeRecord& r : shapes) before.push_back(r.state);
     pending = worker.submit([this, dt, n, energy, before = std::move(before)] {
-      if (energy && !account.started) startEnergyAccount();
-      StepReport r = run(dt, n);
-      downloadShapes();
-      if (energy) r.energy = checkEnergy(before);
-      return r;
+      // a failed advance is undone: what it changes is kept first (the particles' copy
+      // costs a pass over their memory, see the backends' saveState)
+      const Rollback rollback = keep();
+      backend->saveState();
+      try {
+        if (energy && !account.started) startEnergyAccount();
+        StepReport r = run(dt, n);
+        downloadShapes();
+        if (energy) r.energy = checkEnergy(before);
+        return r;
+      } catch (...) {
+        backend->restoreState();
+        restore(rollback);
+        throw;
+      }
     });
+  }
+
+  /// What an advance changes on the host.
+  struct Rollback {
+    double time;
+    float maxParticleSpeed;
+    EnergyAccount account;
+    std::vector<std::pair<ShapeState, ShapeImpulse>> shapes;
+  };
+  Rollback keep() const {
+    Rollback r{time, maxParticleSpeed, account, {}};
+    for (const ShapeRecord& s : shapes) r.shapes.push_back({s.state, s.lastImpulse});
+    return r;
+  }
+  void restore(const Rollback& r) {
+    time = r.time;
+    maxParticleSpeed = r.maxParticleSpeed;
+    account = r.account;
+    for (size_t i = 0; i < shapes.size(); ++i) std::tie(shapes[i].state, shapes[i].lastImpulse) = r.shapes[i];
   }
 
   StepReport fetch() {

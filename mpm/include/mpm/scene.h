@@ -64,7 +64,9 @@ class SceneImpl;
 /// A simulation world of MPM material. Not copyable; movable.
 class Scene {
  public:
-  /// Validates `settings` (throws InvalidArgument naming the field) and picks the backend
+  /// Validates `settings` (throws InvalidArgument naming the field; a grid of more than
+  /// 2^28 blocks of 4^3 nodes over the domain is refused on SceneSettings.dx with the memory
+  /// its tables would take) and picks the backend
   /// (throws BackendUnavailable if CUDA is requested without a device).
   explicit Scene(const SceneSettings& settings);
   ~Scene();
@@ -72,7 +74,10 @@ class Scene {
   Scene& operator=(Scene&&) noexcept;
 
   /// Adds a body of particles. Throws InvalidArgument (and changes nothing) on bad input,
-  /// including particles that would lie outside the domain's interior.
+  /// including particles that would lie outside the domain's interior, more than 1e8
+  /// particles in the scene, or (SolverType::Mtled) an object its model cannot be built
+  /// for (too few nodes for a support domain, coplanar supports). Objects already in the
+  /// scene keep their state.
   ParticleObjectId addParticleObject(const ParticleObjectDesc& desc);
   /// Removes an object; its handle becomes stale.
   void removeParticleObject(ParticleObjectId id);
@@ -92,10 +97,18 @@ class Scene {
   ShapeImpulse shapeImpulse(ShapeId id) const;
 
   /// Starts advancing the scene by `dt` seconds (> 0) on a worker thread. The scene must
-  /// not be changed until fetchResults() returns.
+  /// not be changed until fetchResults() returns. Throws InvalidArgument, changing
+  /// nothing, if dt needs more than 1e7 substeps of maxSubstep() (a material far too stiff
+  /// for dx, naming its youngsModulus).
   void advance(float dt);
   /// Waits for the step started by advance(); rethrows any error it raised (for instance
   /// SimulationDiverged). Returns immediately if no step is running.
+  /// After a failed step the scene is as it was before that advance(): time, particles
+  /// (positions, velocities, F, C, their order), the shapes' states and last impulses and
+  /// the energy account are put back (each advance keeps a copy of the particle state for
+  /// this: one pass over it, and its size again in memory); only timings() keep the work.
+  /// The same advance with the same settings fails again: change the scene (remove or
+  /// replace the object named in the error, move a shape) or advance by less.
   StepReport fetchResults();
   /// advance(dt) followed by fetchResults().
   StepReport step(float dt);
@@ -117,7 +130,9 @@ class Scene {
   size_t particleCount() const;
   size_t particleCount(ParticleObjectId id) const;
   /// Copies positions [m] / velocities [m/s] / deformation gradients of one object's
-  /// particles into `out` (resized). Order is stable for the object's lifetime.
+  /// particles into `out` (resized). Order is stable for the object's lifetime. With
+  /// SolverType::Mtled the particles are nodes and F lives at the integration points: a
+  /// node's F is the volume-weighted mean of the F of the points whose strain depends on it.
   void readPositions(ParticleObjectId id, std::vector<Vec3f>& out) const;
   void readVelocities(ParticleObjectId id, std::vector<Vec3f>& out) const;
   void readDeformationGradients(ParticleObjectId id, std::vector<Mat3f>& out) const;

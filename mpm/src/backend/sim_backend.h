@@ -61,6 +61,14 @@ class SimBackend {
   /// The integration cells of the object in `slot` (appended just before); solvers
   /// without integration cells ignore them.
   virtual void appendIntegrationCells(uint32_t /*slot*/, const IntegrationCells& /*cells*/) {}
+  /// Throws Error if the solver cannot model an object of these particles and cells with
+  /// this material in `slot` (called before append(), so a refused object changes nothing).
+  virtual void checkObject(uint32_t /*slot*/, const HostParticles& /*particles*/, const IntegrationCells& /*cells*/,
+                           const std::vector<MaterialParams>& /*materials*/) const {}
+  /// Keeps a copy of the state an advance changes (the particles), and puts it back: a
+  /// failed advance is undone with these.
+  virtual void saveState() = 0;
+  virtual void restoreState() = 0;
   /// Keeps only the particles whose object slot has keep[slot] != 0.
   virtual void removeObjects(const std::vector<uint8_t>& keep) = 0;
   /// Material table indexed by object slot.

@@ -58,6 +58,13 @@ MtledModel buildMtledModel(const MtledSettings& settings, const std::vector<Vec3
                            const std::vector<uint32_t>& nodeObject, const IntegrationCells& cells,
                            const std::vector<uint32_t>& pointObject, const std::vector<MaterialParams>& materials);
 
+/// Deformation gradient at each node, for the nodes at x (X in the reference): the
+/// volume-weighted mean of the F of the integration points whose strain depends on the node
+/// (those whose terms name it: the points around it), each F as the internal-force kernel
+/// forms it. A dropped node takes its carrier's.
+std::vector<Mat3f> nodeDeformationGradients(const MtledModel& model, const std::vector<Vec3f>& x,
+                                            const std::vector<Vec3f>& X);
+
 /// Integration cells over the box [lo, hi] (cells of about `cellSize`, fitted to the box),
 /// from 4^3 voxels per cell each inside or not per `inside` at its centre: each cell that
 /// holds material gives one point, at the centroid of its inside voxels, with their volume
@@ -192,7 +199,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   template <class... Args>
   explicit MtledSystem(const MtledSettings& settings, Args&&... execArgs)
       : ExecOwner<Exec>(std::forward<Args>(execArgs)...), ShapeBackend<Exec>(this->exec_), settings_(settings) {
-    for (auto* a : {&x_, &v_, &X_}) a->bind(&exec_);
+    for (auto* a : {&x_, &v_, &X_, &xSaved_, &vSaved_}) a->bind(&exec_);
     for (auto* a : {&carrier_, &termStart_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
     mass_.bind(&exec_);
     volumes_.bind(&exec_);
@@ -200,6 +207,14 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     forces_.bind(&exec_);
     materials_.bind(&exec_);
     nodeSums_.bind(&exec_);
+  }
+
+  /// Objects never share a support domain: the new object's model alone tells whether
+  /// the whole can be built. Its build is repeated by the next prepare() (a second build of
+  /// that object, paid once when it is added).
+  void checkObject(uint32_t slot, const HostParticles& add, const IntegrationCells& cells,
+                   const std::vector<MaterialParams>& materials) const override {
+    buildMtledModel(settings_, add.x, add.object, cells, std::vector<uint32_t>(cells.size(), slot), materials);
   }
 
   void append(const HostParticles& add) override {
@@ -243,6 +258,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   }
 
   void setMaterials(const std::vector<MaterialParams>& m) override {
+    syncToHost();
     materialTable_ = m;
     materials_.resizeDiscard(m.size());
     exec_.copyToDevice(materials_.data(), m.data(), m.size() * sizeof(MaterialParams));
@@ -250,6 +266,17 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   }
 
   void sortParticles() override {}  // the nodes' order is the model's; nothing to sort
+
+  /// The nodes' motion, on the device (the model is built first, so there is motion to copy).
+  void saveState() override {
+    prepare();
+    copy(xSaved_, x_);
+    copy(vSaved_, v_);
+  }
+  void restoreState() override {
+    copy(x_, xSaved_);
+    copy(v_, vSaved_);
+  }
 
   float stableTimeStep() override {
     prepare();
@@ -322,17 +349,17 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   }
 
 
+  /// The nodes, with F at each node from the integration points around it
+  /// (nodeDeformationGradients).
   void download(HostParticles& out) const override {
     out = nodes_;
-    if (dirty_ || nodes_.size() == 0) return;  // nodes_ is current until the model is built
-    exec_.copyToHost(out.x.data(), x_.data(), out.x.size() * sizeof(Vec3f));
-    exec_.copyToHost(out.v.data(), v_.data(), out.v.size() * sizeof(Vec3f));
+    if (onDevice_) downloadMotion(out);
   }
 
   /// sum over points V_p W(F_p), F_p from the nodes' displacements as the internal force
   /// kernel forms it: the energy whose gradient the forces are (energy balance, section 4.7).
   double integrationPointEnergy(const HostParticles& state) const override {
-    if (dirty_) return 0.0;  // no step since the nodes changed: they are at their reference
+    if (dirty_) return 0.0;  // no model to measure with (never in a step: saveState() builds it)
     double energy = 0;
     for (size_t p = 0; p < model_.volumes.size(); ++p) {
       const Mat3f F = kernels::pointDeformationGradient(p, state.x.data(), reference_.data(), model_.termStart.data(),
@@ -345,9 +372,8 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   size_t particleCount() const override { return nodes_.size(); }
   size_t activeBlocks() const override { return 0; }  // no grid
   size_t memoryBytes() const override {
-    return x_.bytes() + v_.bytes() + X_.bytes() + mass_.bytes() + carrier_.bytes() + termStart_.bytes() +
-           support_.bytes() +
-           gradients_.bytes() + volumes_.bytes() + pointObject_.bytes() + forceStart_.bytes() +
+    return x_.bytes() + v_.bytes() + xSaved_.bytes() + vSaved_.bytes() + X_.bytes() + mass_.bytes() +
+           carrier_.bytes() + termStart_.bytes() + support_.bytes() + gradients_.bytes() + volumes_.bytes() + pointObject_.bytes() + forceStart_.bytes() +
            forceTerms_.bytes() + forces_.bytes() + materials_.bytes() + nodeSums_.bytes() + shapes_.memoryBytes();
   }
 
@@ -363,11 +389,25 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     exec_.copyToDevice(a.data(), host.data(), host.size() * sizeof(T));
   }
 
-  /// Brings the host copy of the nodes' motion up to date before the node set changes.
+  template <class T>
+  void copy(ExecArray<T, Exec>& to, const ExecArray<T, Exec>& from) {
+    to.resizeDiscard(from.size());
+    exec_.copyOnDevice(to.data(), from.data(), from.size() * sizeof(T));
+  }
+
+  /// The device's x, v into `out` (sized as nodes_), and F at the nodes from the model.
+  void downloadMotion(HostParticles& out) const {
+    exec_.copyToHost(out.x.data(), x_.data(), out.x.size() * sizeof(Vec3f));
+    exec_.copyToHost(out.v.data(), v_.data(), out.v.size() * sizeof(Vec3f));
+    out.F = nodeDeformationGradients(model_, out.x, reference_);
+  }
+
+  /// Brings the host copy of the nodes' motion up to date before the nodes, cells or
+  /// materials change (the model is rebuilt from it), while the model still matches it.
   void syncToHost() {
-    if (dirty_ || nodes_.size() == 0) return;
-    exec_.copyToHost(nodes_.x.data(), x_.data(), nodes_.size() * sizeof(Vec3f));
-    exec_.copyToHost(nodes_.v.data(), v_.data(), nodes_.size() * sizeof(Vec3f));
+    if (!onDevice_) return;
+    downloadMotion(nodes_);
+    onDevice_ = false;
   }
 
   /// Builds the model and uploads it, once after the nodes, cells or materials changed.
@@ -392,6 +432,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     upload(forceTerms_, model_.forceTerms);
     forces_.resizeDiscard(model_.support.size());
     dirty_ = false;
+    onDevice_ = true;
     timings.sort += seconds(t0);
   }
 
@@ -406,7 +447,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   }
 
   MtledSettings settings_;
-  // host side: the nodes as added (motion current only while dirty_), reference
+  // host side: the nodes as added (motion current while !onDevice_), reference
   // positions, integration cells, materials; the model built from them
   HostParticles nodes_;
   std::vector<Vec3f> reference_;
@@ -414,7 +455,9 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   std::vector<uint32_t> pointSlot_;
   std::vector<MaterialParams> materialTable_;
   MtledModel model_;
-  bool dirty_ = false;
+  bool dirty_ = false;     ///< the model no longer matches the nodes, cells or materials
+  bool onDevice_ = false;  ///< the nodes' motion is newer on the device than in nodes_
+  ExecArray<Vec3f, Exec> xSaved_, vSaved_;  ///< saveState()'s copy
   // Exec side: the dynamic state and the model the kernels read
   ExecArray<Vec3f, Exec> x_, v_, X_;
   ExecArray<float, Exec> mass_, volumes_;

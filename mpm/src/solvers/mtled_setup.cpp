@@ -292,6 +292,23 @@ IntegrationCells integrationCells(const std::function<bool(Vec3f)>& inside, Vec3
   return out;
 }
 
+std::vector<Mat3f> nodeDeformationGradients(const MtledModel& m, const std::vector<Vec3f>& x,
+                                            const std::vector<Vec3f>& X) {
+  std::vector<Mat3f> F(x.size());
+  std::vector<float> weight(x.size(), 0.f);
+  for (size_t p = 0; p < m.volumes.size(); ++p) {
+    const Mat3f Fp = kernels::pointDeformationGradient(p, x.data(), X.data(), m.termStart.data(), m.support.data(),
+                                                       m.shapeGradients.data());
+    for (uint32_t t = m.termStart[p]; t < m.termStart[p + 1]; ++t) {
+      F[m.support[t]] = F[m.support[t]] + m.volumes[p] * Fp;
+      weight[m.support[t]] += m.volumes[p];
+    }
+  }
+  for (size_t i = 0; i < F.size(); ++i) F[i] = weight[i] > 0.f ? (1.f / weight[i]) * F[i] : Mat3f::identity();
+  for (size_t i = 0; i < F.size(); ++i) F[i] = F[m.carrier[i]];  // a carrier carries itself
+  return F;
+}
+
 MtledModel buildMtledModel(const MtledSettings& settings, const std::vector<Vec3f>& X,
                            const std::vector<uint32_t>& nodeObject, const IntegrationCells& cells,
                            const std::vector<uint32_t>& pointObject, const std::vector<MaterialParams>& materials) {
