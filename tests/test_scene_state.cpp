@@ -145,6 +145,40 @@ TEST(SceneState, AFailedMtledStepLeavesTheSceneAsBefore) {
   expectSamePositions(positions(scene, id), before);
 }
 
+// Defect 3 when the energy check fails, after the shapes have been read back: they are
+// put back too. A spinning block at 13 times its CFL step (as test_stability's).
+TEST(SceneState, AFailedEnergyCheckPutsTheShapesBack) {
+  SceneSettings s = settings(SolverType::MlsMpm);
+  s.gravity = {0.f, 0.f, 0.f};
+  s.energyCheck.enabled = true;
+  s.substeps.fixedSubsteps = 1;
+  Scene scene(s);
+  ParticleObjectDesc spinning = block({0.f, 0.5f, 0.f});
+  spinning.angularVelocity = {0.f, 0.f, 5.f};
+  const ParticleObjectId id = scene.addParticleObject(spinning);
+  ShapeDesc tool;
+  tool.parts = {Geometry::sphere(0.05f)};
+  tool.pose.position = {0.3f, 0.8f, 0.3f};
+  tool.linearVelocity = {0.f, 0.f, -0.1f};
+  const ShapeId shape = scene.addShape(tool);
+  const float dt = 4.f * s.dx / std::sqrt(1e4f * 0.7f / (1.3f * 0.4f) / 1000.f);
+  for (int step = 0; step < 50; ++step) {
+    const double t = scene.time();
+    const std::vector<Vec3f> x = positions(scene, id);
+    const Vec3f at = scene.shapeState(shape).pose.position;
+    try {
+      scene.step(dt);
+    } catch (const SimulationDiverged& e) {
+      ASSERT_NE(std::string(e.what()).find("energy grew"), std::string::npos) << e.what();
+      EXPECT_EQ(scene.time(), t);
+      expectSamePositions(positions(scene, id), x);
+      EXPECT_EQ(scene.shapeState(shape).pose.position.z, at.z);
+      return;
+    }
+  }
+  FAIL() << "50 steps of " << dt << " s ran without an error";
+}
+
 // Defect 7: an advance that needs more substeps than the limit is refused before it starts.
 TEST(SceneState, AdvanceBeyondTheSubstepLimitIsRefused) {
   Scene scene(settings(SolverType::MlsMpm));
