@@ -210,6 +210,13 @@ TEST(Validation, GridTooLargeForMemoryIsRefused) {
       EXPECT_NE(std::string(e.what()).find(" GB"), std::string::npos) << e.what();
     }
   }
+  // MTLED has no grid: only the per-axis bound applies
+  SceneSettings s = goodSettings();
+  s.domain.lower = {0.f, 0.f, 0.f};
+  s.domain.upper = {16.f, 16.f, 16.f};
+  s.dx = 0.001f;
+  s.solver = SolverType::Mtled;
+  EXPECT_NO_THROW(Scene scene(s));
 }
 
 // The particle count is estimated before any particle is made.

@@ -58,7 +58,8 @@ void sceneSettings(const SceneSettings& s) {
                           "must exceed domain.lower " + show(s.domain.lower) + " on every axis");
   // The grid keeps dense tables over all its 4^3-node blocks (block -> active slot, and
   // the binning's counts: 8 bytes a block on the CPU, 4 on the GPU) before any particle,
-  // and indexes blocks with 32-bit ints: bound the total, not only each axis.
+  // and indexes blocks with 32-bit ints: bound the total, not only each axis. MTLED has
+  // no grid.
   double blocks = 1;
   for (int a = 0; a < 3; ++a) {
     const double cells = std::ceil(size[a] / s.dx);
@@ -68,7 +69,7 @@ void sceneSettings(const SceneSettings& s) {
     blocks *= std::ceil((cells + 1) / 4);
   }
   constexpr double kMaxBlocks = 1 << 28, kBytesPerBlock = 8;
-  if (blocks > kMaxBlocks) {
+  if (blocks > kMaxBlocks && s.solver != SolverType::Mtled) {
     std::ostringstream why;
     why.precision(3);
     why << "gives " << blocks << " grid blocks of 4^3 nodes over the domain " << show(s.domain.lower) << " - "
