@@ -24,11 +24,11 @@ Vec3f toVec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z
 btVector3 toBt(Vec3f v) { return {v.x, v.y, v.z}; }
 
 void preTick(btDynamicsWorld* world, btScalar dt) {
-  static_cast<Coupler*>(world->getWorldUserInfo())->tick((float)dt);
+  static_cast<Coupler*>(world->getWorldUserInfo())->hookedTick((float)dt, true);
 }
 
 void postTick(btDynamicsWorld* world, btScalar dt) {
-  static_cast<Coupler*>(world->getWorldUserInfo())->finishTick((float)dt);
+  static_cast<Coupler*>(world->getWorldUserInfo())->hookedTick((float)dt, false);
 }
 
 /// Adds (sign +1) or takes back (sign -1) a multibody link's coupling force.
@@ -75,9 +75,35 @@ Coupler::~Coupler() {
 void Coupler::finishTick(float dt) {
   // Bullet clears multibody forces only when stepSimulation returns, not between its
   // internal ticks: the coupling force added before this tick is taken back after it
+  // (and forgotten, so a tick that fails before adding its own takes back nothing)
   for (Link& l : links_)
-    if (l.multi && l.dynamic) addLinkForce(l.multi, l.link, -l.force, -l.torque);
+    if (l.multi && l.dynamic) {
+      addLinkForce(l.multi, l.link, -l.force, -l.torque);
+      l.force = l.torque = btVector3(0, 0, 0);
+    }
   if (userCallback_) userCallback_(dt);
+}
+
+void Coupler::hookedTick(float dt, bool pre) noexcept {
+  // Bullet is not exception-safe: an exception unwinding through stepSimulation would
+  // leave its world half-stepped. Keep it for rethrowError(); until the caller has taken
+  // it the coupling stays off (no scene step, no impulses), so Bullet finishes the step
+  // as if the tissue were absent. A tick failing in step 3 may have pushed some bodies.
+  if (error_) return;
+  try {
+    if (pre)
+      tick(dt);
+    else
+      finishTick(dt);
+  } catch (...) {
+    error_ = std::current_exception();
+    // take back this tick's multibody forces (a failure in tick() left them unset)
+    for (Link& l : links_)
+      if (l.multi && l.dynamic) {
+        addLinkForce(l.multi, l.link, -l.force, -l.torque);
+        l.force = l.torque = btVector3(0, 0, 0);
+      }
+  }
 }
 
 ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
@@ -141,6 +167,12 @@ ShapeId Coupler::shapeOf(const btCollisionObject* object) const {
   for (const Link& l : links_)
     if (l.object == object) return l.shape;
   throw InvalidArgument("Coupler::shapeOf object", "not coupled", "this collision object was never added");
+}
+
+void Coupler::rethrowError() {
+  std::exception_ptr e = error_;
+  error_ = nullptr;
+  if (e) std::rethrow_exception(e);
 }
 
 void Coupler::setUserTickCallback(std::function<void(float)> callback) { userCallback_ = std::move(callback); }

@@ -24,6 +24,18 @@
 /// substep with the mass of the nodes it touches (see shape_kernels.h), so a body lighter
 /// than the tissue under it settles instead of oscillating; Bullet then receives exactly
 /// the momentum the tissue gave up.
+///
+/// Errors: Bullet is not exception-safe, so nothing the coupling throws inside a tick (the
+/// scene's SimulationDiverged, an InvalidArgument, the user tick callback's own exceptions)
+/// unwinds through stepSimulation. The first one is kept and the coupling is suspended:
+/// the rest of that stepSimulation, and any later one, runs Bullet alone (no scene step,
+/// no impulses, no user callback) until the caller takes the error:
+///
+///   world->stepSimulation(1.f / 60, 10, 1.f / 240);
+///   coupler.rethrowError();  // throws the kept exception (its own type), then resumes
+///
+/// The scene is left as the failed step left it (readable; its clock includes that tick).
+#include <exception>
 #include <functional>
 #include <vector>
 
@@ -63,6 +75,13 @@ class Coupler {
   /// Called after each internal tick, with the tick length [s].
   void setUserTickCallback(std::function<void(float)> callback);
 
+  /// The exception a tick threw inside stepSimulation, or null. While one is kept the
+  /// coupling is suspended (see the top of this file).
+  std::exception_ptr error() const { return error_; }
+  /// Throws the kept exception, if any, and clears it: the coupling resumes with the next
+  /// tick. Call it after each stepSimulation.
+  void rethrowError();
+
   /// Shape of a coupled object, e.g. to read its last impulse.
   ShapeId shapeOf(const btCollisionObject* object) const;
 
@@ -70,6 +89,9 @@ class Coupler {
   void tick(float dt);
   /// End of an internal tick: takes back multibody coupling forces, calls the user.
   void finishTick(float dt);
+  /// What Bullet's hook calls: tick (pre) or finishTick, with any exception caught and
+  /// kept in error() instead of unwinding through Bullet; nothing runs while one is kept.
+  void hookedTick(float dt, bool pre) noexcept;
 
  private:
   struct Link;
@@ -79,6 +101,7 @@ class Coupler {
   Scene& scene_;
   std::vector<Link> links_;
   std::function<void(float)> userCallback_;
+  std::exception_ptr error_;
 };
 
 }  // namespace mpm::bullet
