@@ -66,7 +66,13 @@ struct InclineResult {
   double t1 = 0, t2 = 0;    ///< [s]
 };
 
-InclineResult runIncline(WorldType type, SolverType solver, double theta, float mu) {
+/// Where the ramp's friction mu comes from: CouplingOptions (an explicit override), the
+/// ramp body's own btCollisionObject::setFriction (no override), or, multibody world only,
+/// the friction of the base collider of a fixed-base btMultiBody that is the ramp.
+enum class FrictionFrom { Options, Body, MultiBodyCollider };
+
+InclineResult runIncline(WorldType type, SolverType solver, double theta, float mu,
+                         FrictionFrom from = FrictionFrom::Options) {
   BulletWorld bw(type, kG);
   const test::Incline incline{theta};
   SceneSettings st;
@@ -79,11 +85,33 @@ InclineResult runIncline(WorldType type, SolverType solver, double theta, float 
   const btTransform rampPose(btQuaternion(btVector3(0, 0, 1), (btScalar)-theta),
                              btVector3(centre.x, centre.y, centre.z));
   const float* half = test::Incline::kRampHalf;
-  btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(half[0], half[1], half[2])), 0.f, rampPose);
   bullet::Coupler coupler(bw.world.get(), scene);
-  bullet::CouplingOptions opts;
-  opts.contact.friction = mu;
-  coupler.addRigidBody(ramp, opts);
+  if (from == FrictionFrom::MultiBodyCollider) {
+    btBoxShape* box = new btBoxShape(btVector3(half[0], half[1], half[2]));
+    bw.shapes.emplace_back(box);
+    bw.multiBodies.emplace_back(new btMultiBody(0, 0.f, btVector3(0, 0, 0), true, false));
+    btMultiBody* mb = bw.multiBodies.back().get();
+    mb->finalizeMultiDof();
+    mb->setBasePos(rampPose.getOrigin());
+    mb->setWorldToBaseRot(rampPose.getRotation().inverse());  // Bullet stores world-to-base
+    bw.multiWorld->addMultiBody(mb);
+    bw.colliders.emplace_back(new btMultiBodyLinkCollider(mb, -1));
+    btMultiBodyLinkCollider* c = bw.colliders.back().get();
+    c->setCollisionShape(box);
+    c->setWorldTransform(rampPose);
+    c->setFriction(mu);
+    bw.world->addCollisionObject(c, btBroadphaseProxy::StaticFilter, btBroadphaseProxy::AllFilter);
+    mb->setBaseCollider(c);
+    coupler.addMultiBody(mb);
+  } else {
+    btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(half[0], half[1], half[2])), 0.f, rampPose);
+    bullet::CouplingOptions opts;
+    if (from == FrictionFrom::Options)
+      opts.contact.friction = mu;
+    else
+      ramp->setFriction(mu);
+    coupler.addRigidBody(ramp, opts);
+  }
   const std::vector<ParticleObjectId> ids = incline.addTissue(scene, softTissue());
 
   // settle 50 ms, then follow v_s(t) over 200 ms, frame by frame
@@ -133,6 +161,79 @@ TEST_P(BulletPhysics, TissueHoldsOnTiltedBulletBoxBelowTheFrictionAngle) {
               name().c_str(), r.maxSpeed, r.travel, r.t1, r.t2);
   EXPECT_LT(r.maxSpeed, 0.01);
   EXPECT_LT(std::fabs(r.travel), 1e-3);
+}
+
+// The ramp's own Bullet friction, no override: tan 25 deg = 0.466 lies between mu = 0.2,
+// which slides with a = 9.81 (0.4226 - 0.2 * 0.9063) = 2.368 m/s^2 (same 5 % bound as
+// above), and mu = 0.8, which holds (same bounds as above). Rigid-body ramps in both world
+// types and a fixed-base multibody whose base collider is the ramp; MLS-MPM on the CPU.
+TEST(BulletFriction, BodysOwnFrictionDecidesSlideOrHold) {
+  const double theta = 25.0 * kPi / 180.0;
+  struct Case {
+    WorldType world;
+    FrictionFrom from;
+    const char* name;
+  };
+  for (const Case& c : {Case{WorldType::Discrete, FrictionFrom::Body, "Discrete rigid body"},
+                        Case{WorldType::MultiBody, FrictionFrom::Body, "MultiBody rigid body"},
+                        Case{WorldType::MultiBody, FrictionFrom::MultiBodyCollider, "MultiBody base collider"}}) {
+    const float slip = 0.2f, grip = 0.8f;
+    const InclineResult slide = runIncline(c.world, SolverType::MlsMpm, theta, slip, c.from);
+    const double expected = kG * (std::sin(theta) - slip * std::cos(theta));
+    std::printf("%s friction %.1f: a = %.4f m/s^2 (least squares %.4f), closed form %.4f\n", c.name, slip,
+                slide.acceleration, slide.fitted, expected);
+    EXPECT_NEAR(slide.acceleration, expected, 0.05 * expected) << c.name;
+    EXPECT_NEAR(slide.fitted, expected, 0.05 * expected) << c.name;
+    const InclineResult hold = runIncline(c.world, SolverType::MlsMpm, theta, grip, c.from);
+    std::printf("%s friction %.1f: max |v_s| = %.5f m/s, travel %.2e m\n", c.name, grip, hold.maxSpeed, hold.travel);
+    EXPECT_LT(hold.maxSpeed, 0.01) << c.name;
+    EXPECT_LT(std::fabs(hold.travel), 1e-3) << c.name;
+  }
+}
+
+// The override is explicit: unset takes the body's friction, any value set (0 included)
+// replaces it, and a full ContactParams given is taken as is. A friction that is not a
+// coefficient is refused naming where it came from.
+TEST(BulletFriction, OverrideIsExplicitAndBadFrictionIsNamed) {
+  bullet::CouplingContact c;
+  EXPECT_FLOAT_EQ(c.resolve(0.7f).friction, 0.7f) << "unset: the body's";
+  c.friction = 0.f;
+  EXPECT_FLOAT_EQ(c.resolve(0.7f).friction, 0.f) << "an explicit 0 overrides";
+  ContactParams p;
+  p.mode = ContactMode::Sticky;
+  p.friction = 0.3f;
+  p.drag = 0.5f;
+  p.band = 0.01f;
+  const ContactParams r = bullet::CouplingContact(p).resolve(0.7f);
+  EXPECT_EQ(r.mode, ContactMode::Sticky);
+  EXPECT_FLOAT_EQ(r.friction, 0.3f);
+  EXPECT_FLOAT_EQ(r.drag, 0.5f);
+  EXPECT_FLOAT_EQ(r.band, 0.01f);
+
+  BulletWorld bw(WorldType::Discrete, kG);
+  SceneSettings st;
+  st.dx = 0.05f;
+  Scene scene(st);
+  bullet::Coupler coupler(bw.world.get(), scene);
+  btRigidBody* body = bw.addBody(new btSphereShape(0.05f), 0.f, btTransform::getIdentity());
+  body->setFriction(-1.f);
+  try {
+    coupler.addRigidBody(body);
+    ADD_FAILURE() << "a negative body friction was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("getFriction()"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("-1"), std::string::npos) << e.what();
+  }
+  bullet::CouplingOptions opts;
+  opts.contact.friction = std::nanf("");
+  try {
+    coupler.addRigidBody(body, opts);
+    ADD_FAILURE() << "a NaN friction was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("CouplingOptions.contact.friction"), std::string::npos) << e.what();
+  }
+  opts.contact.friction = 0.4f;  // the override makes the body's own value irrelevant
+  EXPECT_NO_THROW(coupler.addRigidBody(body, opts));
 }
 
 // ---------------------------------------------------------------------------------------

@@ -4,6 +4,9 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 
+#include <cmath>
+#include <string>
+
 #include "mpm_bullet/shape_conversion.h"
 
 namespace mpm::bullet {
@@ -17,6 +20,20 @@ struct Coupler::Link {
   bool dynamic;
   btVector3 force{0, 0, 0}, torque{0, 0, 0};  ///< multibody: applied over the next tick
 };
+
+// CouplingContact repeats ContactParams' fields but friction: a field added there must be
+// added here too
+static_assert(sizeof(ContactParams) == sizeof(ContactMode) + 3 * sizeof(float),
+              "ContactParams changed: update CouplingContact");
+
+ContactParams CouplingContact::resolve(float bodyFriction) const {
+  ContactParams p;
+  p.mode = mode;
+  p.friction = friction ? *friction : bodyFriction;
+  p.drag = drag;
+  p.band = band;
+  return p;
+}
 
 namespace {
 
@@ -111,7 +128,12 @@ ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMult
   const float cell = options.sdfCellSize > 0.f ? options.sdfCellSize : 0.5f * scene_.settings().dx;
   ShapeDesc d;
   d.parts = convertShape(object->getCollisionShape(), cell);
-  d.contact = options.contact;
+  // mu_k: the override, else the object's own Bullet friction (see CouplingContact)
+  d.contact = options.contact.resolve((float)object->getFriction());
+  if (!(d.contact.friction >= 0.f) || !std::isfinite(d.contact.friction))
+    throw InvalidArgument(options.contact.friction ? "CouplingOptions.contact.friction"
+                                                   : "btCollisionObject::getFriction() of the coupled body",
+                          std::to_string(d.contact.friction), "must be finite and >= 0");
   const btTransform& t = object->getWorldTransform();
   const btQuaternion q = t.getRotation();
   d.pose = {toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};

@@ -37,6 +37,7 @@
 /// The scene is left as the failed step left it (readable; its clock includes that tick).
 #include <exception>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -49,9 +50,38 @@ class btMultiBodyLinkCollider;
 
 namespace mpm::bullet {
 
+/// How a coupled body touches the tissue: mpm::ContactParams, except that the friction
+/// is the Bullet body's own unless set here.
+///
+/// Mapping of Bullet's contact properties (read when the body is added):
+/// - btCollisionObject::getFriction() (of the rigid body, or of each multibody link
+///   collider) becomes the shape's kinetic friction coefficient mu_k (ContactParams::
+///   friction) as it is: the tissue has no Bullet friction of its own to combine with
+///   (Bullet multiplies the two bodies' coefficients). Set `friction` to override it.
+/// - Rolling and spinning friction do not apply: they are torques Bullet's solver puts at
+///   a contact point to stand for a contact patch it does not model; on the grid the patch
+///   is resolved, node by node with Coulomb friction, so the tissue's own deformation gives
+///   that resistance.
+/// - Restitution does not apply: the grid contact removes the approaching normal velocity
+///   of each node (perfectly inelastic there), and any rebound comes from the tissue's
+///   elasticity and damping. Contact stiffness/damping and anisotropic friction neither.
+struct CouplingContact {
+  ContactMode mode = ContactMode::Frictional;
+  /// Kinetic friction coefficient mu_k, >= 0; unset: the body's getFriction().
+  std::optional<float> friction;
+  float drag = 1.f;  ///< as ContactParams::drag
+  float band = 0.f;  ///< as ContactParams::band [m]
+
+  CouplingContact() = default;
+  /// All of `p`, its friction included (an explicit override).
+  CouplingContact(const ContactParams& p) : mode(p.mode), friction(p.friction), drag(p.drag), band(p.band) {}
+  /// The shape's contact parameters for a body whose Bullet friction is `bodyFriction`.
+  ContactParams resolve(float bodyFriction) const;
+};
+
 /// Contact settings and sampling for a coupled body.
 struct CouplingOptions {
-  ContactParams contact;
+  CouplingContact contact;
   /// Sample spacing of signed distance grids built for meshes and hulls [m]; 0 = dx / 2.
   float sdfCellSize = 0.f;
 };
