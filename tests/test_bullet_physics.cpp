@@ -12,8 +12,10 @@
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -666,6 +668,245 @@ TEST(BulletShapeConversion, ScaledCapsules) {
     expectPoseNear(g.localPose, btTransform::getIdentity(), c.name);
     expectPartMatches(g, *c.shape, btTransform::getIdentity(), c.name, 200 + c.axis);
   }
+}
+
+// A capsule whose cylinder part has zero height is legal in Bullet and is a sphere: it
+// converts to one, exactly (Bullet's support distance at 300 points, 1e-5 m), on each axis
+// and when the height is scaled to zero.
+TEST(BulletShapeConversion, ZeroHeightCapsuleIsASphere) {
+  btCapsuleShape alongY(0.03f, 0.f);
+  btCapsuleShapeX alongX(0.03f, 0.f);
+  btCapsuleShapeZ alongZ(0.03f, 0.f);
+  btCapsuleShape flattened(0.03f, 0.1f);  // half height 5 cm scaled to 0 along y
+  flattened.setLocalScaling(btVector3(1.f, 0.f, 1.f));
+  struct Case {
+    const btCapsuleShape* shape;
+    const char* name;
+  };
+  for (const Case& c : {Case{&alongY, "capsule y, height 0"}, Case{&alongX, "capsule x, height 0"},
+                        Case{&alongZ, "capsule z, height 0"}, Case{&flattened, "capsule y scaled (1, 0, 1)"}}) {
+    ASSERT_EQ(c.shape->getHalfHeight(), 0.f) << c.name;
+    const std::vector<Geometry> parts = bullet::convertShape(c.shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u) << c.name;
+    EXPECT_EQ(parts[0].type, GeometryType::Sphere) << c.name;
+    EXPECT_NEAR(parts[0].radius, 0.03f, 1e-6f) << c.name;
+    expectPartMatches(parts[0], *c.shape, btTransform::getIdentity(), c.name, 300);
+  }
+}
+
+// ... and it couples: a 0.5 kg zero-height capsule dropped 5 mm onto a soft slab (MLS-MPM,
+// CPU) rests there, held up by its weight (time-averaged over the last 0.4 s of 0.8 s,
+// within 2 %, the bound of the resting-box tests).
+TEST(BulletShapeConversion, ZeroHeightCapsuleRestsOnTissue) {
+  BulletWorld bw(WorldType::Discrete, kG);
+  btRigidBody* ground = bw.addGround();
+  SceneSettings st;
+  st.domain.lower = {-0.14f, -0.1f, -0.14f};
+  st.domain.upper = {0.14f, 0.3f, 0.14f};
+  st.dx = 0.02f;
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc slab;
+  slab.center = {0.f, 0.052f, 0.f};
+  slab.halfExtents = {0.08f, 0.05f, 0.08f};
+  slab.material = softTissue();
+  scene.addParticleObject(slab);
+  const float r = 0.03f, mass = 0.5f;
+  btRigidBody* ball = bw.addBody(new btCapsuleShape(r, 0.f), mass,
+                                 btTransform(btQuaternion::getIdentity(), btVector3(0, 0.102f + r + 0.005f, 0)));
+  bullet::Coupler coupler(bw.world.get(), scene);
+  coupler.addRigidBody(ground);
+  const ShapeId id = coupler.addRigidBody(ball);
+  double impulse = 0, time = 0;
+  coupler.setUserTickCallback([&](float dt) {
+    if (scene.time() > 0.4) impulse += scene.shapeImpulse(id).linear.y, time += dt;
+  });
+  for (int f = 0; f < 48; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
+  ASSERT_GT(time, 0.3);
+  std::printf("zero-height capsule on tissue: time-averaged force %.4f N, weight %.4f N; rests at y = %.4f m, speed "
+              "%.4f m/s\n",
+              impulse / time, mass * kG, ball->getCenterOfMassPosition().y(), ball->getLinearVelocity().length());
+  EXPECT_NEAR(impulse / time, mass * kG, 0.02 * mass * kG);
+  EXPECT_LT(ball->getLinearVelocity().length(), 0.05f) << "at rest";
+  EXPECT_GT(ball->getCenterOfMassPosition().y(), 0.102f + r - 0.5f * st.dx) << "sinks less than half a cell";
+}
+
+// Bullet shapes of zero size have no inside for the tissue to touch: each is refused by the
+// conversion with a message naming the Bullet shape and what is zero (before, they reached
+// the scene and were refused there as "ShapeDesc.parts[0]...", or converted to nothing).
+TEST(BulletShapeConversion, ZeroSizeShapesAreRefusedNamingWhat) {
+  btBoxShape flatBox(btVector3(0.05f, 0.f, 0.05f));
+  btBoxShape squashedBox(btVector3(0.05f, 0.05f, 0.05f));
+  squashedBox.setLocalScaling(btVector3(1.f, 0.f, 1.f));
+  btSphereShape point(0.f);
+  btCapsuleShape segment(0.f, 0.1f);
+  btCylinderShape disc(btVector3(0.05f, 0.f, 0.05f));
+  btCylinderShape needle(btVector3(0.f, 0.05f, 0.f));
+  btConeShape flatCone(0.05f, 0.f);
+  flatCone.setMargin(0.f);  // with its default margin Bullet's flat cone is a rounded disc
+  const btVector3 centre(0, 0, 0);
+  const btScalar zero = 0.f;
+  btMultiSphereShape pointSpheres(&centre, &zero, 1);
+  btConvexHullShape flatHull;  // four points in the plane x + y + z = 0
+  for (const btVector3& v : {btVector3(0.05f, -0.05f, 0), btVector3(-0.05f, 0.05f, 0), btVector3(0, 0.05f, -0.05f),
+                             btVector3(0, -0.05f, 0.05f)})
+    flatHull.addPoint(v);
+  flatHull.setMargin(0.f);
+  btCompoundShape compound;
+  btBoxShape solid(btVector3(0.05f, 0.05f, 0.05f));
+  compound.addChildShape(btTransform::getIdentity(), &solid);
+  compound.addChildShape(btTransform::getIdentity(), &flatBox);
+  struct Case {
+    const btCollisionShape* shape;
+    std::vector<const char*> words;  ///< the message must contain each
+  };
+  const std::vector<Case> cases = {
+      {&flatBox, {"btBoxShape", "half extents", "y"}},
+      {&squashedBox, {"btBoxShape", "half extents", "y"}},
+      {&point, {"btSphereShape", "radius"}},
+      {&segment, {"btCapsuleShape", "radius"}},
+      {&disc, {"btCylinderShape", "half height"}},
+      {&needle, {"btCylinderShape", "radius"}},
+      {&flatCone, {"btConeShape"}},
+      {&pointSpheres, {"btMultiSphereShape"}},
+      {&flatHull, {"btConvexHullShape"}},
+      {&compound, {"btCompoundShape child 1", "btBoxShape", "half extents"}},
+  };
+  for (const Case& c : cases) {
+    try {
+      bullet::convertShape(c.shape, 0.005f);
+      ADD_FAILURE() << c.words[0] << ": converted";
+    } catch (const InvalidArgument& e) {
+      std::printf("%s\n", e.what());
+      for (const char* w : c.words) EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
+    }
+  }
+}
+
+/// Signed distance to the solid cone with apex at (0, h/2, 0) and base of radius r at
+/// y = -h/2, from its cross-section: the triangle (0, h/2), (r, -h/2), (0, -h/2) in the
+/// (distance from the axis, y) plane; the axis side is inside the solid.
+double coneDistance(double r, double h, const btVector3& p) {
+  const double qx = std::sqrt((double)p.x() * p.x() + (double)p.z() * p.z()), qy = p.y();
+  auto segment = [&](double ax, double ay, double bx, double by) {
+    const double ex = bx - ax, ey = by - ay;
+    const double t = std::clamp(((qx - ax) * ex + (qy - ay) * ey) / (ex * ex + ey * ey), 0.0, 1.0);
+    return std::hypot(qx - ax - t * ex, qy - ay - t * ey);
+  };
+  const double d = std::min(segment(0, h / 2, r, -h / 2), segment(r, -h / 2, 0, -h / 2));
+  const bool inside = qy > -h / 2 && qx * h < r * (h / 2 - qy);  // above the base, inside the slant
+  return inside ? -d : d;
+}
+
+/// Signed distance to the convex hull of spheres (a, ra) and (b, rb) (Quilez's round cone).
+double roundConeDistance(const btVector3& a, double ra, const btVector3& b, double rb, const btVector3& p) {
+  const btVector3 ba = b - a, pa = p - a;
+  const double l2 = ba.dot(ba), rr = ra - rb, a2 = l2 - rr * rr, il2 = 1.0 / l2;
+  const double y = pa.dot(ba), z = y - l2;
+  const btVector3 c = pa * (btScalar)l2 - ba * (btScalar)y;
+  const double x2 = c.dot(c), y2 = y * y * l2, z2 = z * z * l2;
+  const double k = (rr > 0 ? 1 : rr < 0 ? -1 : 0) * rr * rr * x2;
+  if ((z > 0 ? 1 : -1) * a2 * z2 > k) return std::sqrt(x2 + z2) * il2 - rb;
+  if ((y > 0 ? 1 : -1) * a2 * y2 < k) return std::sqrt(x2 + y2) * il2 - ra;
+  return (std::sqrt(x2 * a2 * il2) + y * rr) * il2 - ra;
+}
+
+// Cones and multi-spheres have no primitive in the grid's contact: they become signed
+// distance grids. Bullet collides with a cone of margin m as the solid cone grown by m
+// (support vertex plus m times the direction), and with a multi-sphere as the convex hull
+// of its spheres. Every sample must match those closed forms to 1e-6 m (float rounding)
+// and the grid must reach inside; the cone along x checks the axis and Bullet's scaling
+// (height by the axis' factor, radius by the mean of the other two). A multi-sphere of
+// one sphere, or of one holding the other, is that sphere.
+TEST(BulletShapeConversion, ConeAndMultiSphereMatchClosedForms) {
+  btConeShape cone(0.04f, 0.1f);  // default margin 4 cm
+  btConeShapeX coneX(0.03f, 0.08f);
+  coneX.setMargin(0.001f);
+  coneX.setLocalScaling(btVector3(0.5f, 1.2f, 0.8f));  // height 4 cm, radius 3 cm
+  const btVector3 centres[2] = {btVector3(-0.03f, 0, 0), btVector3(0.04f, 0.01f, 0)};
+  const btScalar radii[2] = {0.05f, 0.02f};
+  btMultiSphereShape spheres(centres, radii, 2);
+  auto alongX = [](const btVector3& p) { return btVector3(p.y(), p.x(), p.z()); };  // x axis onto y
+  struct Case {
+    const btConvexShape* shape;
+    std::function<double(const btVector3&)> exact;
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {&cone, [&](const btVector3& p) { return coneDistance(0.04, 0.1, p) - 0.04; }, "cone y, margin 4 cm"},
+      {&coneX, [&](const btVector3& p) { return coneDistance(0.03, 0.04, alongX(p)) - 0.001; },
+       "cone x scaled (0.5, 1.2, 0.8), margin 1 mm"},
+      {&spheres, [&](const btVector3& p) { return roundConeDistance(centres[0], radii[0], centres[1], radii[1], p); },
+       "multi-sphere"}};
+  ASSERT_NEAR(coneX.getHeight(), 0.04f, 1e-7f);
+  ASSERT_NEAR(coneX.getRadius(), 0.03f, 1e-7f);
+  for (const Case& c : cases) {
+    const std::vector<Geometry> parts = bullet::convertShape(c.shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u) << c.name;
+    ASSERT_EQ(parts[0].type, GeometryType::Mesh) << c.name;
+    const SignedDistanceGrid& g = *parts[0].sdf;
+    double worst = 0, nearWorst = 0;
+    int inside = 0, failed = 0;
+    for (int i = 0; i < g.dims[0]; ++i)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int k = 0; k < g.dims[2]; ++k) {
+          const btVector3 p(g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize);
+          const double exact = c.exact(p);
+          const float ours = g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k];
+          worst = std::fmax(worst, std::fabs(ours - exact));
+          if (std::fabs(exact) < 0.01) nearWorst = std::fmax(nearWorst, std::fabs(ours - exact));
+          inside += ours < 0.f;
+          if (std::fabs(ours - exact) > 1e-6 && failed++ < 3)
+            ADD_FAILURE() << c.name << " at (" << p.x() << ", " << p.y() << ", " << p.z() << "): " << ours
+                          << " m, closed form " << exact << " m";
+        }
+    std::printf("%s: %d x %d x %d samples, largest |sdf - closed form| %.2e m, %.2e m within 1 cm of the surface (%d "
+                "inside)\n", c.name, g.dims[0], g.dims[1], g.dims[2], worst, nearWorst, inside);
+    EXPECT_EQ(failed, 0) << c.name;
+    EXPECT_GT(inside, 100) << c.name;
+  }
+  const btVector3 one(0.01f, 0.02f, 0.03f), inner[2] = {btVector3(0, 0, 0), btVector3(0.01f, 0, 0)};
+  const btScalar r1 = 0.02f, rInner[2] = {0.05f, 0.02f};
+  btMultiSphereShape single(&one, &r1, 1), nested(inner, rInner, 2);
+  for (const btMultiSphereShape* m : {&single, &nested}) {
+    const std::vector<Geometry> parts = bullet::convertShape(m, 0.005f);
+    ASSERT_EQ(parts.size(), 1u);
+    EXPECT_EQ(parts[0].type, GeometryType::Sphere);
+    EXPECT_FLOAT_EQ(parts[0].radius, m == &single ? 0.02f : 0.05f);
+    expectPoseNear(parts[0].localPose, btTransform(btQuaternion::getIdentity(), m == &single ? one : inner[0]),
+                   m == &single ? "multi-sphere of one" : "nested spheres");
+  }
+}
+
+// A btScaledBvhTriangleMeshShape (a shared BVH mesh with its own scaling, here (2, 1, 0.5)
+// on a 4 cm cube) converts to the scaled mesh: its grid is exact at the samples (distance to
+// the nearest triangle), so it must equal the closed-form box distance there (1e-6 m).
+TEST(BulletShapeConversion, ScaledBvhMeshIsTheScaledMesh) {
+  btTriangleMesh tris;
+  const float h = 0.02f;
+  const btVector3 v[8] = {{-h, -h, -h}, {h, -h, -h}, {h, h, -h}, {-h, h, -h},
+                          {-h, -h, h},  {h, -h, h},  {h, h, h},  {-h, h, h}};
+  const int faces[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                            {3, 6, 2}, {3, 7, 6}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5}};
+  for (const auto& f : faces) tris.addTriangle(v[f[0]], v[f[1]], v[f[2]]);
+  btBvhTriangleMeshShape cube(&tris, true);
+  btScaledBvhTriangleMeshShape scaled(&cube, btVector3(2.f, 1.f, 0.5f));
+  const std::vector<Geometry> parts = bullet::convertShape(&scaled, 0.005f);
+  ASSERT_EQ(parts.size(), 1u);
+  ASSERT_EQ(parts[0].type, GeometryType::Mesh);
+  const SignedDistanceGrid& g = *parts[0].sdf;
+  const Vec3f half{0.04f, 0.02f, 0.01f};
+  double worst = 0;
+  for (int i = 0; i < g.dims[0]; ++i)
+    for (int j = 0; j < g.dims[1]; ++j)
+      for (int k = 0; k < g.dims[2]; ++k) {
+        const Vec3f p{g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize};
+        Vec3f n;
+        worst = std::fmax(worst, std::fabs(g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k] - sdfBox(p, half, n)));
+      }
+  std::printf("scaled BVH cube: largest |sdf - box distance| %.2e m over %d samples\n", worst,
+              g.dims[0] * g.dims[1] * g.dims[2]);
+  EXPECT_LT(worst, 1e-6);
 }
 
 }  // namespace
