@@ -73,7 +73,8 @@ struct CouplingContact {
   float band = 0.f;  ///< as ContactParams::band [m]
 
   CouplingContact() = default;
-  /// All of `p`, its friction included (an explicit override).
+  /// All of `p`, its friction included (an explicit override). Implicit on purpose, so
+  /// `options.contact = params` keeps meaning what it did.
   CouplingContact(const ContactParams& p) : mode(p.mode), friction(p.friction), drag(p.drag), band(p.band) {}
   /// The shape's contact parameters for a body whose Bullet friction is `bodyFriction`.
   ContactParams resolve(float bodyFriction) const;
