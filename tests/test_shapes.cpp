@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -207,8 +208,13 @@ std::shared_ptr<SignedDistanceGrid> planeGrid(float y0, float cell) {
   return g;
 }
 
-TEST(ShapeContact, MeshGridAtAFreedGridsAddressIsSeenAfresh) {
+// The CPU backend always; CUDA (a device copy proper) where a device exists.
+class MeshCache : public ::testing::TestWithParam<Backend> {};
+
+TEST_P(MeshCache, MeshGridAtAFreedGridsAddressIsSeenAfresh) {
+  if (GetParam() == Backend::Cuda && !cudaDeviceAvailable()) GTEST_SKIP() << "no CUDA device: GPU case skipped";
   SceneSettings s = contactScene();
+  s.backend = GetParam();
   s.gravity = {0.f, 0.f, 0.f};
   ParticleObjectDesc b = softBlock();
   b.center = {0.f, 0.3f, 0.f};  // bottom at 0.25 m, falling at 1 m/s
@@ -253,6 +259,11 @@ TEST(ShapeContact, MeshGridAtAFreedGridsAddressIsSeenAfresh) {
     EXPECT_NEAR(got, expected, 1e-3f * std::fabs(expected)) << "old grid cell " << oldCell;
   }
 }
+
+INSTANTIATE_TEST_SUITE_P(Backends, MeshCache, ::testing::Values(Backend::Cpu, Backend::Cuda),
+                         [](const ::testing::TestParamInfo<Backend>& i) {
+                           return std::string(i.param == Backend::Cpu ? "Cpu" : "Cuda");
+                         });
 
 }  // namespace
 }  // namespace mpm
