@@ -71,6 +71,13 @@ std::string show(const btVector3& v) {
   return s.str();
 }
 
+/// A length as people write it: "0", "0.05" (std::to_string gives "0.000000").
+std::string num(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
 const char* axisName(int a) { return a == 0 ? "x" : a == 1 ? "y" : "z"; }
 
 /// A zero-size Bullet shape (legal there) has no inside for the tissue to touch: refused
@@ -117,7 +124,7 @@ Geometry sampledGeometry(const btVector3& lo, const btVector3& hi, float cell, D
       }
   if (!inside)
     refuseZero(what, "samples", "none inside",
-               "thinner than the sampling (sdfCellSize = " + std::to_string(cell) + " m) or flat");
+               "thinner than the sampling (sdfCellSize = " + num(cell) + " m) or flat");
   Geometry g;
   g.type = GeometryType::Mesh;
   g.sdf = std::move(sdf);
@@ -132,8 +139,8 @@ Geometry coneGeometry(const btConeShape* c, float cell, const std::string& what)
   const double r = c->getRadius(), h = c->getHeight(), m = c->getMargin();
   const int up = c->getConeUpIndex();
   // with a margin, a cone of zero radius or height is still a solid (Bullet rounds it)
-  if (!(r > 0.0) && !(m > 0.0)) refuseZero(what, "radius", std::to_string(r), "a line");
-  if (!(h > 0.0) && !(m > 0.0)) refuseZero(what, "height", std::to_string(h), "a flat disc");
+  if (!(r > 0.0) && !(m > 0.0)) refuseZero(what, "radius", num(r), "a line");
+  if (!(h > 0.0) && !(m > 0.0)) refuseZero(what, "height", num(h), "a flat disc");
   auto distance = [=](const btVector3& p) {
     const double u = p[(up + 1) % 3], w = p[(up + 2) % 3];
     const double qy = p[up], qx = std::sqrt(u * u + w * w);  // along the axis; from it
@@ -169,7 +176,7 @@ Geometry multiSphereGeometry(const btMultiSphereShape* ms, const Pose& local, fl
                           "btConvexHullShape or a compound");
   const btVector3 a = ms->getSpherePosition(0) * sc, b = ms->getSpherePosition(n - 1) * sc;
   const double ra = ms->getSphereRadius(0) * sc.x(), rb = ms->getSphereRadius(n - 1) * sc.x();
-  if (!(std::max(ra, rb) > 0.0)) refuseZero(what, "radii", std::to_string(ra) + ", " + std::to_string(rb), "points");
+  if (!(std::max(ra, rb) > 0.0)) refuseZero(what, "radii", num(ra) + ", " + num(rb), "points");
   if (n == 1 || (a - b).length() + std::min(ra, rb) <= std::max(ra, rb)) {
     // one sphere, or one sphere holding the other: the bigger one, exactly
     Geometry g = Geometry::sphere((float)std::max(ra, rb));
@@ -213,7 +220,7 @@ void convertInto(const btCollisionShape* shape, const Pose& local, float cell, s
       auto* s = static_cast<const btSphereShape*>(shape);
       g.type = GeometryType::Sphere;
       g.radius = (float)s->getRadius();
-      if (!(g.radius > 0.f)) refuseZero(where + "btSphereShape", "radius", std::to_string(g.radius), "a point");
+      if (!(g.radius > 0.f)) refuseZero(where + "btSphereShape", "radius", num(g.radius), "a point");
       break;
     }
     case CAPSULE_SHAPE_PROXYTYPE: {
@@ -221,7 +228,7 @@ void convertInto(const btCollisionShape* shape, const Pose& local, float cell, s
       g.axis = c->getUpAxis();
       g.radius = (float)c->getRadius();
       g.halfHeight = (float)c->getHalfHeight();
-      if (!(g.radius > 0.f)) refuseZero(where + "btCapsuleShape", "radius", std::to_string(g.radius), "a segment");
+      if (!(g.radius > 0.f)) refuseZero(where + "btCapsuleShape", "radius", num(g.radius), "a segment");
       // a capsule whose cylinder part has zero height (legal in Bullet) is exactly a sphere
       g.type = g.halfHeight > 0.f ? GeometryType::Capsule : GeometryType::Sphere;
       break;
@@ -233,8 +240,9 @@ void convertInto(const btCollisionShape* shape, const Pose& local, float cell, s
       const btVector3 h = c->getHalfExtentsWithMargin();
       g.halfHeight = (float)h[g.axis];
       g.radius = (float)h[(g.axis + 1) % 3];
-      if (!(g.halfHeight > 0.f)) refuseZero(where + "btCylinderShape", "half height", std::to_string(g.halfHeight), "a flat disc");
-      if (!(g.radius > 0.f)) refuseZero(where + "btCylinderShape", "radius", std::to_string(g.radius), "a line");
+      if (!(g.halfHeight > 0.f))
+        refuseZero(where + "btCylinderShape", "half height", num(g.halfHeight), "a flat disc");
+      if (!(g.radius > 0.f)) refuseZero(where + "btCylinderShape", "radius", num(g.radius), "a line");
       break;
     }
     case STATIC_PLANE_PROXYTYPE: {
