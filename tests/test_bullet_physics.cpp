@@ -11,6 +11,7 @@
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <BulletCollision/CollisionShapes/btConvexPolyhedron.h>
 
 #include <algorithm>
 #include <cmath>
@@ -907,6 +908,80 @@ TEST(BulletShapeConversion, ScaledBvhMeshIsTheScaledMesh) {
   std::printf("scaled BVH cube: largest |sdf - box distance| %.2e m over %d samples\n", worst,
               g.dims[0] * g.dims[1] * g.dims[2]);
   EXPECT_LT(worst, 1e-6);
+}
+
+// A convex hull is its points' hull grown by its margin, as Bullet collides with it. The
+// conversion must be exact at the grid samples: the hull of a 4 cm cube's corners scaled
+// (2, 1, 1) with margin m is the box rounded by m (closed form: box distance - m, 1e-6 m).
+// The hull H of 400 points on a sphere of radius R = 5 cm (Fibonacci lattice) lies between
+// the sphere and the largest ball about the centre inside it (radius r: the nearest face
+// plane's distance), so its distance is bounded: |p| - R <= d_H(p) <= |p| - r, less m
+// (1e-6 m slack, samples within 1 cm of the surface). Sampling the hull in Bullet's 42 directions (btShapeHull, before) was 4.5e-3 m
+// off, outside those bounds.
+TEST(BulletShapeConversion, ConvexHullIsExactWithItsMargin) {
+  for (const float margin : {0.f, 0.01f}) {
+    btConvexHullShape box;
+    for (int c = 0; c < 8; ++c)
+      box.addPoint(btVector3(c & 1 ? 0.02f : -0.02f, c & 2 ? 0.02f : -0.02f, c & 4 ? 0.02f : -0.02f), false);
+    box.recalcLocalAabb();
+    box.setLocalScaling(btVector3(2.f, 1.f, 1.f));
+    box.setMargin(margin);
+    const std::vector<Geometry> parts = bullet::convertShape(&box, 0.005f);
+    ASSERT_EQ(parts.size(), 1u);
+    const SignedDistanceGrid& g = *parts[0].sdf;
+    double worst = 0;
+    int inside = 0;
+    for (int i = 0; i < g.dims[0]; ++i)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int k = 0; k < g.dims[2]; ++k) {
+          const Vec3f p{g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize};
+          Vec3f n;
+          const double exact = sdfBox(p, {0.04f, 0.02f, 0.02f}, n) - margin;
+          const float ours = g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k];
+          worst = std::fmax(worst, std::fabs(ours - exact));
+          inside += ours < 0.f;
+        }
+    std::printf("hull of a box's corners scaled (2, 1, 1), margin %.2f: largest |sdf - (box distance - margin)| %.2e m "
+                "(%d inside)\n", margin, worst, inside);
+    EXPECT_LT(worst, 1e-6) << "margin " << margin;
+    EXPECT_GT(inside, 100);
+
+    btConvexHullShape ball;
+    const int count = 400;
+    const double R = 0.05, golden = kPi * (3 - std::sqrt(5.0));
+    for (int i = 0; i < count; ++i) {
+      const double z = 1 - 2 * (i + 0.5) / count, r = std::sqrt(1 - z * z);
+      ball.addPoint(btVector3((btScalar)(R * r * std::cos(i * golden)), (btScalar)(R * r * std::sin(i * golden)),
+                              (btScalar)(R * z)), false);
+    }
+    ball.recalcLocalAabb();
+    ball.setMargin(margin);
+    // the largest ball about the centre inside H: its radius is the nearest face plane's
+    // distance (Bullet's own polyhedral features of the hull)
+    ASSERT_TRUE(ball.initializePolyhedralFeatures());
+    double inner = R;
+    const btConvexPolyhedron* poly = ball.getConvexPolyhedron();
+    for (int f = 0; f < poly->m_faces.size(); ++f) inner = std::fmin(inner, std::fabs(poly->m_faces[f].m_plane[3]));
+    const double sag = R - inner;
+    const std::vector<Geometry> ballParts = bullet::convertShape(&ball, 0.005f);
+    ASSERT_EQ(ballParts.size(), 1u);
+    const SignedDistanceGrid& b = *ballParts[0].sdf;
+    double below = 0, above = 0;  // largest excursions below and above the sphere's distance
+    for (int i = 0; i < b.dims[0]; ++i)
+      for (int j = 0; j < b.dims[1]; ++j)
+        for (int k = 0; k < b.dims[2]; ++k) {
+          const Vec3f p{b.lower.x + i * b.cellSize, b.lower.y + j * b.cellSize, b.lower.z + k * b.cellSize};
+          const double sphere = std::sqrt((double)p.x * p.x + (double)p.y * p.y + (double)p.z * p.z) - R - margin;
+          if (std::fabs(sphere) > 0.01) continue;
+          const double ours = b.values[((size_t)i * b.dims[1] + j) * b.dims[2] + k];
+          below = std::fmax(below, sphere - ours);
+          above = std::fmax(above, ours - sphere);
+        }
+    std::printf("hull of %d points on a 5 cm sphere, margin %.2f: sdf - (|p| - R - margin) in [%.2e, %.2e] m, bounds "
+                "[0, %.2e] (R - inner radius)\n", count, margin, -below, above, sag);
+    EXPECT_LT(below, 1e-6) << "margin " << margin << ": inside the sphere's distance";
+    EXPECT_LT(above, sag + 1e-6) << "margin " << margin << ": beyond the inner sphere's distance";
+  }
 }
 
 }  // namespace

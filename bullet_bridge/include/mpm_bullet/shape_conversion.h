@@ -2,9 +2,9 @@
 /// Bullet collision shapes as MPM shape geometry. Box, sphere, capsule (a zero-height one
 /// is a sphere), cylinder and plane map to their analytic signed distances; cones and
 /// multi-spheres of one or two spheres become grids sampled from their exact distance
-/// (margin included, as Bullet collides with them); convex hulls, point clouds, convex
-/// triangle meshes and triangle meshes (BVH, scaled BVH, GImpact) become grids built from
-/// their triangles. Local scaling is honoured. A shape with no inside (a zero extent,
+/// (margin included, as Bullet collides with them); convex hulls, point clouds and convex
+/// triangle meshes become grids of their points' exact hull less the margin; triangle
+/// meshes (BVH, scaled BVH, GImpact) grids built from their triangles. Local scaling is honoured. A shape with no inside (a zero extent,
 /// radius or height, flat hull points) is refused naming the Bullet shape and what is
 /// zero, since the grid contact needs a solid; so are shapes with no conversion
 /// (heightfield terrain, empty shape, multi-sphere of three or more spheres).
