@@ -11,6 +11,7 @@
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <BulletCollision/CollisionShapes/btConvexPointCloudShape.h>
 #include <BulletCollision/CollisionShapes/btConvexPolyhedron.h>
 
 #include <algorithm>
@@ -981,6 +982,39 @@ TEST(BulletShapeConversion, ConvexHullIsExactWithItsMargin) {
                 "[0, %.2e] (R - inner radius)\n", count, margin, -below, above, sag);
     EXPECT_LT(below, 1e-6) << "margin " << margin << ": inside the sphere's distance";
     EXPECT_LT(above, sag + 1e-6) << "margin " << margin << ": beyond the inner sphere's distance";
+  }
+}
+
+// The hull's siblings take the same exact path: a btConvexPointCloudShape of a 4 cm cube's
+// corners scaled (2, 1, 1) and a btConvexTriangleMeshShape of that cube's triangles with the
+// same scaling, margin 5 mm: the box rounded by the margin (1e-6 m).
+TEST(BulletShapeConversion, PointCloudAndConvexTriangleMeshAreExact) {
+  btVector3 corners[8];
+  for (int c = 0; c < 8; ++c) corners[c] = btVector3(c & 1 ? 0.02f : -0.02f, c & 2 ? 0.02f : -0.02f, c & 4 ? 0.02f : -0.02f);
+  btConvexPointCloudShape cloud(corners, 8, btVector3(2.f, 1.f, 1.f));
+  cloud.setMargin(0.005f);
+  btTriangleMesh tris;
+  const int faces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                            {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (const auto& f : faces) tris.addTriangle(corners[f[0]], corners[f[1]], corners[f[2]]);
+  btConvexTriangleMeshShape convexMesh(&tris);
+  convexMesh.setLocalScaling(btVector3(2.f, 1.f, 1.f));
+  convexMesh.setMargin(0.005f);
+  for (const btConvexShape* shape : {(const btConvexShape*)&cloud, (const btConvexShape*)&convexMesh}) {
+    const std::vector<Geometry> parts = bullet::convertShape(shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u);
+    const SignedDistanceGrid& g = *parts[0].sdf;
+    double worst = 0;
+    for (int i = 0; i < g.dims[0]; ++i)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int k = 0; k < g.dims[2]; ++k) {
+          const Vec3f p{g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize};
+          Vec3f n;
+          worst = std::fmax(worst, std::fabs(g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k] -
+                                             (sdfBox(p, {0.04f, 0.02f, 0.02f}, n) - 0.005f)));
+        }
+    std::printf("%s: largest |sdf - (box distance - margin)| %.2e m\n", shape->getName(), worst);
+    EXPECT_LT(worst, 1e-6) << shape->getName();
   }
 }
 
