@@ -12,7 +12,9 @@
 
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -130,6 +132,107 @@ TEST_P(BulletCoupling, LightAndHeavyBoxesSettleAndHeavierSinksDeeper) {
   }
   EXPECT_GT(rest[0], rest[1]);
   EXPECT_GT(rest[1], rest[2]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Errors inside a tick. Bullet is not exception-safe, so the coupler catches what its tick
+// throws inside stepSimulation, suspends the coupling (no scene step, no impulses) and
+// hands the error over in Coupler::rethrowError().
+
+bool finite(const btVector3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
+
+// A box rests on the slab (and, in a multibody world, a Featherstone chain beside it, clear
+// of the box); a speck of tissue thrown up leaves the grid (walls off) a few frames in, and
+// the scene's step throws SimulationDiverged inside Bullet's tick. stepSimulation must
+// return, the bodies stay finite, a whole frame after the failure the box falls freely
+// (dv = -g t: no coupling impulse reaches it any more), and the error reaches the caller
+// with its message.
+TEST(BulletCouplingErrors, SceneErrorInsideATickReachesTheCallerAfterTheStep) {
+  for (const WorldType type : {WorldType::Discrete, WorldType::MultiBody}) {
+    SCOPED_TRACE(test::worldTypeName(type));
+    GroundedWorld bw(type);
+    SceneSettings st = tissueScene(SolverType::MlsMpm);
+    st.domain.walls = false;
+    Scene scene(st);
+    scene.addParticleObject(slab());
+    ParticleObjectDesc speck;
+    speck.center = {0.15f, 0.3f, 0.f};
+    speck.halfExtents = {0.01f, 0.01f, 0.01f};
+    speck.material = slab().material;
+    speck.velocity = {0.f, 2.f, 0.f};
+    scene.addParticleObject(speck);
+    const float h = 0.03f;
+    btRigidBody* box = bw.addBodyAt(new btBoxShape(btVector3(0.05f, h, 0.05f)), 1.f, btVector3(0, 0.104f + h + 0.005f, 0));
+    bullet::Coupler coupler(bw.world.get(), scene);
+    coupler.addRigidBody(bw.ground);
+    coupler.addRigidBody(box);
+    btMultiBody* chain = nullptr;
+    if (type == WorldType::MultiBody) {
+      chain = bw.addBoxChain(3, btVector3(0.02f, 0.01f, 0.03f), 0.005f, 0.1f, btVector3(-0.08f, 0.125f, 0.1f));
+      coupler.addMultiBody(chain);
+    }
+    int ticks = 0;
+    coupler.setUserTickCallback([&](float) { ++ticks; });
+    const float frame = 1.f / 60;
+    int failedAt = -1;
+    float vFailed = 0.f;
+    for (int f = 0; f < 12 && failedAt < 0; ++f) {
+      EXPECT_NO_THROW(bw.world->stepSimulation(frame, 10, 1.f / 240)) << "frame " << f;
+      if (coupler.error()) failedAt = f, vFailed = (float)box->getLinearVelocity().y();
+    }
+    ASSERT_GE(failedAt, 1) << "the speck leaves the grid after a few frames, not at once";
+    const double tissueTime = scene.time();
+    // the scene's clock includes the failed tick; the user callback ran for the ticks before it
+    EXPECT_LE(tissueTime, (failedAt + 1) * frame + 1e-6) << "no scene step after the failed tick";
+    EXPECT_EQ(ticks, (int)std::lround(tissueTime * 240) - 1) << "the user callback runs for completed ticks only";
+    // a whole frame with the coupling suspended: the box falls freely, nothing pushes it
+    EXPECT_NO_THROW(bw.world->stepSimulation(frame, 10, 1.f / 240));
+    EXPECT_NEAR(box->getLinearVelocity().y() - vFailed, -9.81 * frame, 1e-4) << "free fall over the frame";
+    EXPECT_EQ(scene.time(), tissueTime) << "the scene waits while the error is pending";
+    EXPECT_TRUE(finite(box->getCenterOfMassPosition()) && finite(box->getLinearVelocity()) &&
+                finite(box->getAngularVelocity()));
+    if (chain) {
+      EXPECT_TRUE(finite(chain->getBasePos()) && finite(chain->getBaseVel()) && finite(chain->getBaseOmega()));
+      for (int i = 0; i < chain->getNumLinks(); ++i) EXPECT_TRUE(std::isfinite(chain->getJointPos(i))) << i;
+    }
+    std::string message;
+    try {
+      coupler.rethrowError();
+      ADD_FAILURE() << "rethrowError() did not throw";
+    } catch (const SimulationDiverged& e) {
+      message = e.what();
+    }
+    std::printf("%s: the scene failed in frame %d at t = %.4f s: %s\n", test::worldTypeName(type).c_str(), failedAt,
+                tissueTime, message.c_str());
+    EXPECT_NE(message.find("left the grid"), std::string::npos) << message;
+    EXPECT_FALSE(coupler.error()) << "the error is handed over once";
+    EXPECT_NO_THROW(coupler.rethrowError());
+  }
+}
+
+// The user's tick callback runs inside Bullet's tick too: what it throws is kept the same way.
+TEST(BulletCouplingErrors, UserCallbackErrorReachesTheCallerAfterTheStep) {
+  GroundedWorld bw(WorldType::Discrete);
+  Scene scene(tissueScene(SolverType::MlsMpm));
+  scene.addParticleObject(slab());
+  bullet::Coupler coupler(bw.world.get(), scene);
+  coupler.addRigidBody(bw.ground);
+  int ticks = 0;
+  coupler.setUserTickCallback([&](float) {
+    if (++ticks == 2) throw std::runtime_error("stop at the second tick");
+  });
+  EXPECT_NO_THROW(bw.world->stepSimulation(1.f / 60, 10, 1.f / 240));
+  EXPECT_EQ(ticks, 2) << "no tick runs after the error";
+  EXPECT_NEAR(scene.time(), 2.0 / 240, 1e-6);
+  try {
+    coupler.rethrowError();
+    ADD_FAILURE() << "rethrowError() did not throw";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(), "stop at the second tick");
+  }
+  // handed over: the coupling resumes with the next step
+  EXPECT_NO_THROW(bw.world->stepSimulation(1.f / 60, 10, 1.f / 240));
+  EXPECT_NEAR(scene.time(), 6.0 / 240, 1e-6);
 }
 
 INSTANTIATE_TEST_SUITE_P(WorldTypesAndSolvers, BulletCoupling,

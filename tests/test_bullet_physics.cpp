@@ -11,9 +11,13 @@
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <BulletCollision/CollisionShapes/btConvexPointCloudShape.h>
+#include <BulletCollision/CollisionShapes/btConvexPolyhedron.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -66,7 +70,13 @@ struct InclineResult {
   double t1 = 0, t2 = 0;    ///< [s]
 };
 
-InclineResult runIncline(WorldType type, SolverType solver, double theta, float mu) {
+/// Where the ramp's friction mu comes from: CouplingOptions (an explicit override), the
+/// ramp body's own btCollisionObject::setFriction (no override), or, multibody world only,
+/// the friction of the base collider of a fixed-base btMultiBody that is the ramp.
+enum class FrictionFrom { Options, Body, MultiBodyCollider };
+
+InclineResult runIncline(WorldType type, SolverType solver, double theta, float mu,
+                         FrictionFrom from = FrictionFrom::Options) {
   BulletWorld bw(type, kG);
   const test::Incline incline{theta};
   SceneSettings st;
@@ -79,11 +89,33 @@ InclineResult runIncline(WorldType type, SolverType solver, double theta, float 
   const btTransform rampPose(btQuaternion(btVector3(0, 0, 1), (btScalar)-theta),
                              btVector3(centre.x, centre.y, centre.z));
   const float* half = test::Incline::kRampHalf;
-  btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(half[0], half[1], half[2])), 0.f, rampPose);
   bullet::Coupler coupler(bw.world.get(), scene);
-  bullet::CouplingOptions opts;
-  opts.contact.friction = mu;
-  coupler.addRigidBody(ramp, opts);
+  if (from == FrictionFrom::MultiBodyCollider) {
+    btBoxShape* box = new btBoxShape(btVector3(half[0], half[1], half[2]));
+    bw.shapes.emplace_back(box);
+    bw.multiBodies.emplace_back(new btMultiBody(0, 0.f, btVector3(0, 0, 0), true, false));
+    btMultiBody* mb = bw.multiBodies.back().get();
+    mb->finalizeMultiDof();
+    mb->setBasePos(rampPose.getOrigin());
+    mb->setWorldToBaseRot(rampPose.getRotation().inverse());  // Bullet stores world-to-base
+    bw.multiWorld->addMultiBody(mb);
+    bw.colliders.emplace_back(new btMultiBodyLinkCollider(mb, -1));
+    btMultiBodyLinkCollider* c = bw.colliders.back().get();
+    c->setCollisionShape(box);
+    c->setWorldTransform(rampPose);
+    c->setFriction(mu);
+    bw.world->addCollisionObject(c, btBroadphaseProxy::StaticFilter, btBroadphaseProxy::AllFilter);
+    mb->setBaseCollider(c);
+    coupler.addMultiBody(mb);
+  } else {
+    btRigidBody* ramp = bw.addBody(new btBoxShape(btVector3(half[0], half[1], half[2])), 0.f, rampPose);
+    bullet::CouplingOptions opts;
+    if (from == FrictionFrom::Options)
+      opts.contact.friction = mu;
+    else
+      ramp->setFriction(mu);
+    coupler.addRigidBody(ramp, opts);
+  }
   const std::vector<ParticleObjectId> ids = incline.addTissue(scene, softTissue());
 
   // settle 50 ms, then follow v_s(t) over 200 ms, frame by frame
@@ -133,6 +165,79 @@ TEST_P(BulletPhysics, TissueHoldsOnTiltedBulletBoxBelowTheFrictionAngle) {
               name().c_str(), r.maxSpeed, r.travel, r.t1, r.t2);
   EXPECT_LT(r.maxSpeed, 0.01);
   EXPECT_LT(std::fabs(r.travel), 1e-3);
+}
+
+// The ramp's own Bullet friction, no override: tan 25 deg = 0.466 lies between mu = 0.2,
+// which slides with a = 9.81 (0.4226 - 0.2 * 0.9063) = 2.368 m/s^2 (same 5 % bound as
+// above), and mu = 0.8, which holds (same bounds as above). Rigid-body ramps in both world
+// types and a fixed-base multibody whose base collider is the ramp; MLS-MPM on the CPU.
+TEST(BulletFriction, BodysOwnFrictionDecidesSlideOrHold) {
+  const double theta = 25.0 * kPi / 180.0;
+  struct Case {
+    WorldType world;
+    FrictionFrom from;
+    const char* name;
+  };
+  for (const Case& c : {Case{WorldType::Discrete, FrictionFrom::Body, "Discrete rigid body"},
+                        Case{WorldType::MultiBody, FrictionFrom::Body, "MultiBody rigid body"},
+                        Case{WorldType::MultiBody, FrictionFrom::MultiBodyCollider, "MultiBody base collider"}}) {
+    const float slip = 0.2f, grip = 0.8f;
+    const InclineResult slide = runIncline(c.world, SolverType::MlsMpm, theta, slip, c.from);
+    const double expected = kG * (std::sin(theta) - slip * std::cos(theta));
+    std::printf("%s friction %.1f: a = %.4f m/s^2 (least squares %.4f), closed form %.4f\n", c.name, slip,
+                slide.acceleration, slide.fitted, expected);
+    EXPECT_NEAR(slide.acceleration, expected, 0.05 * expected) << c.name;
+    EXPECT_NEAR(slide.fitted, expected, 0.05 * expected) << c.name;
+    const InclineResult hold = runIncline(c.world, SolverType::MlsMpm, theta, grip, c.from);
+    std::printf("%s friction %.1f: max |v_s| = %.5f m/s, travel %.2e m\n", c.name, grip, hold.maxSpeed, hold.travel);
+    EXPECT_LT(hold.maxSpeed, 0.01) << c.name;
+    EXPECT_LT(std::fabs(hold.travel), 1e-3) << c.name;
+  }
+}
+
+// The override is explicit: unset takes the body's friction, any value set (0 included)
+// replaces it, and a full ContactParams given is taken as is. A friction that is not a
+// coefficient is refused naming where it came from.
+TEST(BulletFriction, OverrideIsExplicitAndBadFrictionIsNamed) {
+  bullet::CouplingContact c;
+  EXPECT_FLOAT_EQ(c.resolve(0.7f).friction, 0.7f) << "unset: the body's";
+  c.friction = 0.f;
+  EXPECT_FLOAT_EQ(c.resolve(0.7f).friction, 0.f) << "an explicit 0 overrides";
+  ContactParams p;
+  p.mode = ContactMode::Sticky;
+  p.friction = 0.3f;
+  p.drag = 0.5f;
+  p.band = 0.01f;
+  const ContactParams r = bullet::CouplingContact(p).resolve(0.7f);
+  EXPECT_EQ(r.mode, ContactMode::Sticky);
+  EXPECT_FLOAT_EQ(r.friction, 0.3f);
+  EXPECT_FLOAT_EQ(r.drag, 0.5f);
+  EXPECT_FLOAT_EQ(r.band, 0.01f);
+
+  BulletWorld bw(WorldType::Discrete, kG);
+  SceneSettings st;
+  st.dx = 0.05f;
+  Scene scene(st);
+  bullet::Coupler coupler(bw.world.get(), scene);
+  btRigidBody* body = bw.addBody(new btSphereShape(0.05f), 0.f, btTransform::getIdentity());
+  body->setFriction(-1.f);
+  try {
+    coupler.addRigidBody(body);
+    ADD_FAILURE() << "a negative body friction was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("getFriction()"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("-1"), std::string::npos) << e.what();
+  }
+  bullet::CouplingOptions opts;
+  opts.contact.friction = std::nanf("");
+  try {
+    coupler.addRigidBody(body, opts);
+    ADD_FAILURE() << "a NaN friction was accepted";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("CouplingOptions.contact.friction"), std::string::npos) << e.what();
+  }
+  opts.contact.friction = 0.4f;  // the override makes the body's own value irrelevant
+  EXPECT_NO_THROW(coupler.addRigidBody(body, opts));
 }
 
 // ---------------------------------------------------------------------------------------
@@ -564,6 +669,352 @@ TEST(BulletShapeConversion, ScaledCapsules) {
     EXPECT_NEAR(g.halfHeight, c.halfHeight, 1e-6f) << c.name;
     expectPoseNear(g.localPose, btTransform::getIdentity(), c.name);
     expectPartMatches(g, *c.shape, btTransform::getIdentity(), c.name, 200 + c.axis);
+  }
+}
+
+// A capsule whose cylinder part has zero height is legal in Bullet and is a sphere: it
+// converts to one, exactly (Bullet's support distance at 300 points, 1e-5 m), on each axis
+// and when the height is scaled to zero.
+TEST(BulletShapeConversion, ZeroHeightCapsuleIsASphere) {
+  btCapsuleShape alongY(0.03f, 0.f);
+  btCapsuleShapeX alongX(0.03f, 0.f);
+  btCapsuleShapeZ alongZ(0.03f, 0.f);
+  btCapsuleShape flattened(0.03f, 0.1f);  // half height 5 cm scaled to 0 along y
+  flattened.setLocalScaling(btVector3(1.f, 0.f, 1.f));
+  struct Case {
+    const btCapsuleShape* shape;
+    const char* name;
+  };
+  for (const Case& c : {Case{&alongY, "capsule y, height 0"}, Case{&alongX, "capsule x, height 0"},
+                        Case{&alongZ, "capsule z, height 0"}, Case{&flattened, "capsule y scaled (1, 0, 1)"}}) {
+    ASSERT_EQ(c.shape->getHalfHeight(), 0.f) << c.name;
+    const std::vector<Geometry> parts = bullet::convertShape(c.shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u) << c.name;
+    EXPECT_EQ(parts[0].type, GeometryType::Sphere) << c.name;
+    EXPECT_NEAR(parts[0].radius, 0.03f, 1e-6f) << c.name;
+    expectPartMatches(parts[0], *c.shape, btTransform::getIdentity(), c.name, 300);
+  }
+}
+
+// ... and it couples: a 0.5 kg zero-height capsule dropped 5 mm onto a soft slab (MLS-MPM,
+// CPU) rests there, held up by its weight (time-averaged over the last 0.4 s of 0.8 s,
+// within 2 %, the bound of the resting-box tests).
+TEST(BulletShapeConversion, ZeroHeightCapsuleRestsOnTissue) {
+  BulletWorld bw(WorldType::Discrete, kG);
+  btRigidBody* ground = bw.addGround();
+  SceneSettings st;
+  st.domain.lower = {-0.14f, -0.1f, -0.14f};
+  st.domain.upper = {0.14f, 0.3f, 0.14f};
+  st.dx = 0.02f;
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc slab;
+  slab.center = {0.f, 0.052f, 0.f};
+  slab.halfExtents = {0.08f, 0.05f, 0.08f};
+  slab.material = softTissue();
+  scene.addParticleObject(slab);
+  const float r = 0.03f, mass = 0.5f;
+  btRigidBody* ball = bw.addBody(new btCapsuleShape(r, 0.f), mass,
+                                 btTransform(btQuaternion::getIdentity(), btVector3(0, 0.102f + r + 0.005f, 0)));
+  bullet::Coupler coupler(bw.world.get(), scene);
+  coupler.addRigidBody(ground);
+  const ShapeId id = coupler.addRigidBody(ball);
+  double impulse = 0, time = 0;
+  coupler.setUserTickCallback([&](float dt) {
+    if (scene.time() > 0.4) impulse += scene.shapeImpulse(id).linear.y, time += dt;
+  });
+  for (int f = 0; f < 48; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
+  ASSERT_GT(time, 0.3);
+  std::printf("zero-height capsule on tissue: time-averaged force %.4f N, weight %.4f N; rests at y = %.4f m, speed "
+              "%.4f m/s\n",
+              impulse / time, mass * kG, ball->getCenterOfMassPosition().y(), ball->getLinearVelocity().length());
+  EXPECT_NEAR(impulse / time, mass * kG, 0.02 * mass * kG);
+  EXPECT_LT(ball->getLinearVelocity().length(), 0.05f) << "at rest";
+  EXPECT_GT(ball->getCenterOfMassPosition().y(), 0.102f + r - 0.5f * st.dx) << "sinks less than half a cell";
+}
+
+// Bullet shapes of zero size have no inside for the tissue to touch: each is refused by the
+// conversion with a message naming the Bullet shape and what is zero (before, they reached
+// the scene and were refused there as "ShapeDesc.parts[0]...", or converted to nothing).
+TEST(BulletShapeConversion, ZeroSizeShapesAreRefusedNamingWhat) {
+  btBoxShape flatBox(btVector3(0.05f, 0.f, 0.05f));
+  btBoxShape squashedBox(btVector3(0.05f, 0.05f, 0.05f));
+  squashedBox.setLocalScaling(btVector3(1.f, 0.f, 1.f));
+  btSphereShape point(0.f);
+  btCapsuleShape segment(0.f, 0.1f);
+  btCylinderShape disc(btVector3(0.05f, 0.f, 0.05f));
+  btCylinderShape needle(btVector3(0.f, 0.05f, 0.f));
+  btConeShape flatCone(0.05f, 0.f);
+  flatCone.setMargin(0.f);  // with its default margin Bullet's flat cone is a rounded disc
+  const btVector3 centre(0, 0, 0);
+  const btScalar zero = 0.f;
+  btMultiSphereShape pointSpheres(&centre, &zero, 1);
+  btConvexHullShape flatHull;  // four points in the plane x + y + z = 0
+  for (const btVector3& v : {btVector3(0.05f, -0.05f, 0), btVector3(-0.05f, 0.05f, 0), btVector3(0, 0.05f, -0.05f),
+                             btVector3(0, -0.05f, 0.05f)})
+    flatHull.addPoint(v);
+  flatHull.setMargin(0.f);
+  btCompoundShape compound;
+  btBoxShape solid(btVector3(0.05f, 0.05f, 0.05f));
+  compound.addChildShape(btTransform::getIdentity(), &solid);
+  compound.addChildShape(btTransform::getIdentity(), &flatBox);
+  struct Case {
+    const btCollisionShape* shape;
+    std::vector<const char*> words;  ///< the message must contain each
+  };
+  const std::vector<Case> cases = {
+      {&flatBox, {"btBoxShape", "half extents", "y"}},
+      {&squashedBox, {"btBoxShape", "half extents", "y"}},
+      {&point, {"btSphereShape", "radius"}},
+      {&segment, {"btCapsuleShape", "radius"}},
+      {&disc, {"btCylinderShape", "half height"}},
+      {&needle, {"btCylinderShape", "radius"}},
+      {&flatCone, {"btConeShape"}},
+      {&pointSpheres, {"btMultiSphereShape"}},
+      {&flatHull, {"btConvexHullShape"}},
+      {&compound, {"btCompoundShape child 1", "btBoxShape", "half extents"}},
+  };
+  for (const Case& c : cases) {
+    try {
+      bullet::convertShape(c.shape, 0.005f);
+      ADD_FAILURE() << c.words[0] << ": converted";
+    } catch (const InvalidArgument& e) {
+      std::printf("%s\n", e.what());
+      for (const char* w : c.words) EXPECT_NE(std::string(e.what()).find(w), std::string::npos) << e.what();
+    }
+  }
+}
+
+/// Signed distance to the solid cone with apex at (0, h/2, 0) and base of radius r at
+/// y = -h/2, from its cross-section: the triangle (0, h/2), (r, -h/2), (0, -h/2) in the
+/// (distance from the axis, y) plane; the axis side is inside the solid.
+double coneDistance(double r, double h, const btVector3& p) {
+  const double qx = std::sqrt((double)p.x() * p.x() + (double)p.z() * p.z()), qy = p.y();
+  auto segment = [&](double ax, double ay, double bx, double by) {
+    const double ex = bx - ax, ey = by - ay;
+    const double t = std::clamp(((qx - ax) * ex + (qy - ay) * ey) / (ex * ex + ey * ey), 0.0, 1.0);
+    return std::hypot(qx - ax - t * ex, qy - ay - t * ey);
+  };
+  const double d = std::min(segment(0, h / 2, r, -h / 2), segment(r, -h / 2, 0, -h / 2));
+  const bool inside = qy > -h / 2 && qx * h < r * (h / 2 - qy);  // above the base, inside the slant
+  return inside ? -d : d;
+}
+
+/// Signed distance to the convex hull of spheres (a, ra) and (b, rb) (Quilez's round cone).
+double roundConeDistance(const btVector3& a, double ra, const btVector3& b, double rb, const btVector3& p) {
+  const btVector3 ba = b - a, pa = p - a;
+  const double l2 = ba.dot(ba), rr = ra - rb, a2 = l2 - rr * rr, il2 = 1.0 / l2;
+  const double y = pa.dot(ba), z = y - l2;
+  const btVector3 c = pa * (btScalar)l2 - ba * (btScalar)y;
+  const double x2 = c.dot(c), y2 = y * y * l2, z2 = z * z * l2;
+  const double k = (rr > 0 ? 1 : rr < 0 ? -1 : 0) * rr * rr * x2;
+  if ((z > 0 ? 1 : -1) * a2 * z2 > k) return std::sqrt(x2 + z2) * il2 - rb;
+  if ((y > 0 ? 1 : -1) * a2 * y2 < k) return std::sqrt(x2 + y2) * il2 - ra;
+  return (std::sqrt(x2 * a2 * il2) + y * rr) * il2 - ra;
+}
+
+// Cones and multi-spheres have no primitive in the grid's contact: they become signed
+// distance grids. Bullet collides with a cone of margin m as the solid cone grown by m
+// (support vertex plus m times the direction), and with a multi-sphere as the convex hull
+// of its spheres. Every sample must match those closed forms to 1e-6 m (float rounding)
+// and the grid must reach inside; the cone along x checks the axis and Bullet's scaling
+// (height by the axis' factor, radius by the mean of the other two). A multi-sphere of
+// one sphere, or of one holding the other, is that sphere.
+TEST(BulletShapeConversion, ConeAndMultiSphereMatchClosedForms) {
+  btConeShape cone(0.04f, 0.1f);  // default margin 4 cm
+  btConeShapeX coneX(0.03f, 0.08f);
+  coneX.setMargin(0.001f);
+  coneX.setLocalScaling(btVector3(0.5f, 1.2f, 0.8f));  // height 4 cm, radius 3 cm
+  const btVector3 centres[2] = {btVector3(-0.03f, 0, 0), btVector3(0.04f, 0.01f, 0)};
+  const btScalar radii[2] = {0.05f, 0.02f};
+  btMultiSphereShape spheres(centres, radii, 2);
+  auto alongX = [](const btVector3& p) { return btVector3(p.y(), p.x(), p.z()); };  // x axis onto y
+  struct Case {
+    const btConvexShape* shape;
+    std::function<double(const btVector3&)> exact;
+    const char* name;
+  };
+  const std::vector<Case> cases = {
+      {&cone, [&](const btVector3& p) { return coneDistance(0.04, 0.1, p) - 0.04; }, "cone y, margin 4 cm"},
+      {&coneX, [&](const btVector3& p) { return coneDistance(0.03, 0.04, alongX(p)) - 0.001; },
+       "cone x scaled (0.5, 1.2, 0.8), margin 1 mm"},
+      {&spheres, [&](const btVector3& p) { return roundConeDistance(centres[0], radii[0], centres[1], radii[1], p); },
+       "multi-sphere"}};
+  ASSERT_NEAR(coneX.getHeight(), 0.04f, 1e-7f);
+  ASSERT_NEAR(coneX.getRadius(), 0.03f, 1e-7f);
+  for (const Case& c : cases) {
+    const std::vector<Geometry> parts = bullet::convertShape(c.shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u) << c.name;
+    ASSERT_EQ(parts[0].type, GeometryType::Mesh) << c.name;
+    const SignedDistanceGrid& g = *parts[0].sdf;
+    double worst = 0, nearWorst = 0;
+    int inside = 0, failed = 0;
+    for (int i = 0; i < g.dims[0]; ++i)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int k = 0; k < g.dims[2]; ++k) {
+          const btVector3 p(g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize);
+          const double exact = c.exact(p);
+          const float ours = g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k];
+          worst = std::fmax(worst, std::fabs(ours - exact));
+          if (std::fabs(exact) < 0.01) nearWorst = std::fmax(nearWorst, std::fabs(ours - exact));
+          inside += ours < 0.f;
+          if (std::fabs(ours - exact) > 1e-6 && failed++ < 3)
+            ADD_FAILURE() << c.name << " at (" << p.x() << ", " << p.y() << ", " << p.z() << "): " << ours
+                          << " m, closed form " << exact << " m";
+        }
+    std::printf("%s: %d x %d x %d samples, largest |sdf - closed form| %.2e m, %.2e m within 1 cm of the surface (%d "
+                "inside)\n", c.name, g.dims[0], g.dims[1], g.dims[2], worst, nearWorst, inside);
+    EXPECT_EQ(failed, 0) << c.name;
+    EXPECT_GT(inside, 100) << c.name;
+  }
+  const btVector3 one(0.01f, 0.02f, 0.03f), inner[2] = {btVector3(0, 0, 0), btVector3(0.01f, 0, 0)};
+  const btScalar r1 = 0.02f, rInner[2] = {0.05f, 0.02f};
+  btMultiSphereShape single(&one, &r1, 1), nested(inner, rInner, 2);
+  for (const btMultiSphereShape* m : {&single, &nested}) {
+    const std::vector<Geometry> parts = bullet::convertShape(m, 0.005f);
+    ASSERT_EQ(parts.size(), 1u);
+    EXPECT_EQ(parts[0].type, GeometryType::Sphere);
+    EXPECT_FLOAT_EQ(parts[0].radius, m == &single ? 0.02f : 0.05f);
+    expectPoseNear(parts[0].localPose, btTransform(btQuaternion::getIdentity(), m == &single ? one : inner[0]),
+                   m == &single ? "multi-sphere of one" : "nested spheres");
+  }
+}
+
+// A btScaledBvhTriangleMeshShape (a shared BVH mesh with its own scaling, here (2, 1, 0.5)
+// on a 4 cm cube) converts to the scaled mesh: its grid is exact at the samples (distance to
+// the nearest triangle), so it must equal the closed-form box distance there (1e-6 m).
+TEST(BulletShapeConversion, ScaledBvhMeshIsTheScaledMesh) {
+  btTriangleMesh tris;
+  const float h = 0.02f;
+  const btVector3 v[8] = {{-h, -h, -h}, {h, -h, -h}, {h, h, -h}, {-h, h, -h},
+                          {-h, -h, h},  {h, -h, h},  {h, h, h},  {-h, h, h}};
+  const int faces[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                            {3, 6, 2}, {3, 7, 6}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5}};
+  for (const auto& f : faces) tris.addTriangle(v[f[0]], v[f[1]], v[f[2]]);
+  btBvhTriangleMeshShape cube(&tris, true);
+  btScaledBvhTriangleMeshShape scaled(&cube, btVector3(2.f, 1.f, 0.5f));
+  const std::vector<Geometry> parts = bullet::convertShape(&scaled, 0.005f);
+  ASSERT_EQ(parts.size(), 1u);
+  ASSERT_EQ(parts[0].type, GeometryType::Mesh);
+  const SignedDistanceGrid& g = *parts[0].sdf;
+  const Vec3f half{0.04f, 0.02f, 0.01f};
+  double worst = 0;
+  for (int i = 0; i < g.dims[0]; ++i)
+    for (int j = 0; j < g.dims[1]; ++j)
+      for (int k = 0; k < g.dims[2]; ++k) {
+        const Vec3f p{g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize};
+        Vec3f n;
+        worst = std::fmax(worst, std::fabs(g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k] - sdfBox(p, half, n)));
+      }
+  std::printf("scaled BVH cube: largest |sdf - box distance| %.2e m over %d samples\n", worst,
+              g.dims[0] * g.dims[1] * g.dims[2]);
+  EXPECT_LT(worst, 1e-6);
+}
+
+// A convex hull is its points' hull grown by its margin, as Bullet collides with it. The
+// conversion must be exact at the grid samples: the hull of a 4 cm cube's corners scaled
+// (2, 1, 1) with margin m is the box rounded by m (closed form: box distance - m, 1e-6 m).
+// The hull H of 400 points on a sphere of radius R = 5 cm (Fibonacci lattice) lies between
+// the sphere and the largest ball about the centre inside it (radius r: the nearest face
+// plane's distance), so its distance is bounded: |p| - R <= d_H(p) <= |p| - r, less m
+// (1e-6 m slack, samples within 1 cm of the surface). Sampling the hull in Bullet's 42 directions (btShapeHull, before) was 4.5e-3 m
+// off, outside those bounds.
+TEST(BulletShapeConversion, ConvexHullIsExactWithItsMargin) {
+  for (const float margin : {0.f, 0.01f}) {
+    btConvexHullShape box;
+    for (int c = 0; c < 8; ++c)
+      box.addPoint(btVector3(c & 1 ? 0.02f : -0.02f, c & 2 ? 0.02f : -0.02f, c & 4 ? 0.02f : -0.02f), false);
+    box.recalcLocalAabb();
+    box.setLocalScaling(btVector3(2.f, 1.f, 1.f));
+    box.setMargin(margin);
+    const std::vector<Geometry> parts = bullet::convertShape(&box, 0.005f);
+    ASSERT_EQ(parts.size(), 1u);
+    const SignedDistanceGrid& g = *parts[0].sdf;
+    double worst = 0;
+    int inside = 0;
+    for (int i = 0; i < g.dims[0]; ++i)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int k = 0; k < g.dims[2]; ++k) {
+          const Vec3f p{g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize};
+          Vec3f n;
+          const double exact = sdfBox(p, {0.04f, 0.02f, 0.02f}, n) - margin;
+          const float ours = g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k];
+          worst = std::fmax(worst, std::fabs(ours - exact));
+          inside += ours < 0.f;
+        }
+    std::printf("hull of a box's corners scaled (2, 1, 1), margin %.2f: largest |sdf - (box distance - margin)| %.2e m "
+                "(%d inside)\n", margin, worst, inside);
+    EXPECT_LT(worst, 1e-6) << "margin " << margin;
+    EXPECT_GT(inside, 100);
+
+    btConvexHullShape ball;
+    const int count = 400;
+    const double R = 0.05, golden = kPi * (3 - std::sqrt(5.0));
+    for (int i = 0; i < count; ++i) {
+      const double z = 1 - 2 * (i + 0.5) / count, r = std::sqrt(1 - z * z);
+      ball.addPoint(btVector3((btScalar)(R * r * std::cos(i * golden)), (btScalar)(R * r * std::sin(i * golden)),
+                              (btScalar)(R * z)), false);
+    }
+    ball.recalcLocalAabb();
+    ball.setMargin(margin);
+    // the largest ball about the centre inside H: its radius is the nearest face plane's
+    // distance (Bullet's own polyhedral features of the hull)
+    ASSERT_TRUE(ball.initializePolyhedralFeatures());
+    double inner = R;
+    const btConvexPolyhedron* poly = ball.getConvexPolyhedron();
+    for (int f = 0; f < poly->m_faces.size(); ++f) inner = std::fmin(inner, std::fabs(poly->m_faces[f].m_plane[3]));
+    const double sag = R - inner;
+    const std::vector<Geometry> ballParts = bullet::convertShape(&ball, 0.005f);
+    ASSERT_EQ(ballParts.size(), 1u);
+    const SignedDistanceGrid& b = *ballParts[0].sdf;
+    double below = 0, above = 0;  // largest excursions below and above the sphere's distance
+    for (int i = 0; i < b.dims[0]; ++i)
+      for (int j = 0; j < b.dims[1]; ++j)
+        for (int k = 0; k < b.dims[2]; ++k) {
+          const Vec3f p{b.lower.x + i * b.cellSize, b.lower.y + j * b.cellSize, b.lower.z + k * b.cellSize};
+          const double sphere = std::sqrt((double)p.x * p.x + (double)p.y * p.y + (double)p.z * p.z) - R - margin;
+          if (std::fabs(sphere) > 0.01) continue;
+          const double ours = b.values[((size_t)i * b.dims[1] + j) * b.dims[2] + k];
+          below = std::fmax(below, sphere - ours);
+          above = std::fmax(above, ours - sphere);
+        }
+    std::printf("hull of %d points on a 5 cm sphere, margin %.2f: sdf - (|p| - R - margin) in [%.2e, %.2e] m, bounds "
+                "[0, %.2e] (R - inner radius)\n", count, margin, -below, above, sag);
+    EXPECT_LT(below, 1e-6) << "margin " << margin << ": inside the sphere's distance";
+    EXPECT_LT(above, sag + 1e-6) << "margin " << margin << ": beyond the inner sphere's distance";
+  }
+}
+
+// The hull's siblings take the same exact path: a btConvexPointCloudShape of a 4 cm cube's
+// corners scaled (2, 1, 1) and a btConvexTriangleMeshShape of that cube's triangles with the
+// same scaling, margin 5 mm: the box rounded by the margin (1e-6 m).
+TEST(BulletShapeConversion, PointCloudAndConvexTriangleMeshAreExact) {
+  btVector3 corners[8];
+  for (int c = 0; c < 8; ++c) corners[c] = btVector3(c & 1 ? 0.02f : -0.02f, c & 2 ? 0.02f : -0.02f, c & 4 ? 0.02f : -0.02f);
+  btConvexPointCloudShape cloud(corners, 8, btVector3(2.f, 1.f, 1.f));
+  cloud.setMargin(0.005f);
+  btTriangleMesh tris;
+  const int faces[12][3] = {{0, 2, 1}, {1, 2, 3}, {4, 5, 6}, {5, 7, 6}, {0, 1, 4}, {1, 5, 4},
+                            {2, 6, 3}, {3, 6, 7}, {0, 4, 2}, {2, 4, 6}, {1, 3, 5}, {3, 7, 5}};
+  for (const auto& f : faces) tris.addTriangle(corners[f[0]], corners[f[1]], corners[f[2]]);
+  btConvexTriangleMeshShape convexMesh(&tris);
+  convexMesh.setLocalScaling(btVector3(2.f, 1.f, 1.f));
+  convexMesh.setMargin(0.005f);
+  for (const btConvexShape* shape : {(const btConvexShape*)&cloud, (const btConvexShape*)&convexMesh}) {
+    const std::vector<Geometry> parts = bullet::convertShape(shape, 0.005f);
+    ASSERT_EQ(parts.size(), 1u);
+    const SignedDistanceGrid& g = *parts[0].sdf;
+    double worst = 0;
+    for (int i = 0; i < g.dims[0]; ++i)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int k = 0; k < g.dims[2]; ++k) {
+          const Vec3f p{g.lower.x + i * g.cellSize, g.lower.y + j * g.cellSize, g.lower.z + k * g.cellSize};
+          Vec3f n;
+          worst = std::fmax(worst, std::fabs(g.values[((size_t)i * g.dims[1] + j) * g.dims[2] + k] -
+                                             (sdfBox(p, {0.04f, 0.02f, 0.02f}, n) - 0.005f)));
+        }
+    std::printf("%s: largest |sdf - (box distance - margin)| %.2e m\n", shape->getName(), worst);
+    EXPECT_LT(worst, 1e-6) << shape->getName();
   }
 }
 

@@ -3,7 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -151,6 +154,116 @@ TEST(ShapeContact, ThrownSphereConservesTotalMomentum) {
   EXPECT_NEAR(px, p0, 0.01 * p0);
   EXPECT_NEAR(py, 0.0, 0.01 * p0);
 }
+
+// ---------------------------------------------------------------------------------------
+// A backend keeps a device copy of each mesh shape's distance values. The copy must follow
+// the grid it came from, not the address the grid had: a mesh shape removed and another
+// added whose grid lands where the freed one was must be seen with the new values (issue
+// 13: keyed by address, the new shape got the old values, impulse 0 instead of the plane's).
+
+/// Hands out one fixed block while it is free (else the heap): a grid made right after
+/// another was freed lands at the freed one's address, as a general allocator may do.
+struct ReusedBlock {
+  alignas(64) static inline unsigned char bytes[4096];
+  static inline bool busy = false;
+};
+template <class T>
+struct ReusingAllocator {
+  using value_type = T;
+  ReusingAllocator() = default;
+  template <class U>
+  ReusingAllocator(const ReusingAllocator<U>&) {}
+  T* allocate(size_t n) {
+    if (!ReusedBlock::busy && n * sizeof(T) <= sizeof(ReusedBlock::bytes)) {
+      ReusedBlock::busy = true;
+      return reinterpret_cast<T*>(ReusedBlock::bytes);
+    }
+    return static_cast<T*>(::operator new(n * sizeof(T)));
+  }
+  void deallocate(T* p, size_t) {
+    if ((void*)p == (void*)ReusedBlock::bytes)
+      ReusedBlock::busy = false;
+    else
+      ::operator delete(p);
+  }
+  template <class U>
+  bool operator==(const ReusingAllocator<U>&) const { return true; }
+  template <class U>
+  bool operator!=(const ReusingAllocator<U>&) const { return false; }
+};
+
+/// The half-space y <= y0 as a sampled field y - y0 over the whole domain of
+/// contactScene(): trilinear interpolation of a linear field is exact, so this mesh shape
+/// is the plane itself.
+std::shared_ptr<SignedDistanceGrid> planeGrid(float y0, float cell) {
+  auto g = std::allocate_shared<SignedDistanceGrid>(ReusingAllocator<SignedDistanceGrid>());
+  g->lower = {-0.4f, -0.1f, -0.4f};
+  g->cellSize = cell;
+  for (int a = 0; a < 3; ++a) g->dims[a] = (int)std::lround(0.8f / cell) + 1;
+  g->values.resize((size_t)g->dims[0] * g->dims[1] * g->dims[2]);
+  for (int i = 0; i < g->dims[0]; ++i)
+    for (int j = 0; j < g->dims[1]; ++j)
+      for (int k = 0; k < g->dims[2]; ++k)
+        g->values[((size_t)i * g->dims[1] + j) * g->dims[2] + k] = g->lower.y + j * cell - y0;
+  return g;
+}
+
+// The CPU backend always; CUDA (a device copy proper) where a device exists.
+class MeshCache : public ::testing::TestWithParam<Backend> {};
+
+TEST_P(MeshCache, MeshGridAtAFreedGridsAddressIsSeenAfresh) {
+  if (GetParam() == Backend::Cuda && !cudaDeviceAvailable()) GTEST_SKIP() << "no CUDA device: GPU case skipped";
+  SceneSettings s = contactScene();
+  s.backend = GetParam();
+  s.gravity = {0.f, 0.f, 0.f};
+  ParticleObjectDesc b = softBlock();
+  b.center = {0.f, 0.3f, 0.f};  // bottom at 0.25 m, falling at 1 m/s
+  b.velocity = {0.f, -1.f, 0.f};
+  const float frame = 0.01f, y0 = 0.25f;  // after one frame the bottom is 1 cm below y0
+  // reference: one free frame, then the analytic plane y <= y0 for one frame
+  Scene ref(s);
+  ref.addParticleObject(b);
+  ref.step(frame);
+  ShapeDesc plane;
+  plane.parts = {Geometry{}};
+  plane.parts[0].type = GeometryType::Plane;
+  plane.pose.position = {0.f, y0, 0.f};
+  const ShapeId planeId = ref.addShape(plane);
+  ref.step(frame);
+  const float expected = ref.shapeImpulse(planeId).linear.y;
+  ASSERT_LT(expected, -0.5f) << "the plane stops the tissue's bottom";
+  // the old grid: the same size, then larger (finer), and a plane far below the tissue
+  for (const float oldCell : {0.02f, 0.01f}) {
+    Scene scene(s);
+    scene.addParticleObject(b);
+    ShapeDesc far;
+    far.parts = {Geometry{}};
+    far.parts[0].type = GeometryType::Mesh;
+    far.parts[0].sdf = planeGrid(-1.f, oldCell);
+    const void* oldAddress = far.parts[0].sdf.get();
+    const ShapeId farId = scene.addShape(far);
+    scene.step(frame);  // the backend copies the far grid's values
+    EXPECT_EQ(scene.shapeImpulse(farId).linear.y, 0.f) << "the far plane touches nothing";
+    scene.removeShape(farId);
+    far = ShapeDesc{};  // the scene and the test hold the old grid no more
+    ShapeDesc near;
+    near.parts = {Geometry{}};
+    near.parts[0].type = GeometryType::Mesh;
+    near.parts[0].sdf = planeGrid(y0, 0.02f);
+    const bool reused = near.parts[0].sdf.get() == oldAddress;
+    const ShapeId nearId = scene.addShape(near);
+    scene.step(frame);
+    const float got = scene.shapeImpulse(nearId).linear.y;
+    std::printf("old grid cell %.3f m: new grid %s the old one's address; impulse %.5f N s, analytic plane %.5f N s\n",
+                oldCell, reused ? "at" : "not at", got, expected);
+    EXPECT_NEAR(got, expected, 1e-3f * std::fabs(expected)) << "old grid cell " << oldCell;
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, MeshCache, ::testing::Values(Backend::Cpu, Backend::Cuda),
+                         [](const ::testing::TestParamInfo<Backend>& i) {
+                           return std::string(i.param == Backend::Cpu ? "Cpu" : "Cuda");
+                         });
 
 }  // namespace
 }  // namespace mpm

@@ -4,6 +4,9 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 
+#include <cmath>
+#include <string>
+
 #include "mpm_bullet/shape_conversion.h"
 
 namespace mpm::bullet {
@@ -18,17 +21,31 @@ struct Coupler::Link {
   btVector3 force{0, 0, 0}, torque{0, 0, 0};  ///< multibody: applied over the next tick
 };
 
+// CouplingContact repeats ContactParams' fields but friction: a field added there must be
+// added here too
+static_assert(sizeof(ContactParams) == sizeof(ContactMode) + 3 * sizeof(float),
+              "ContactParams changed: update CouplingContact");
+
+ContactParams CouplingContact::resolve(float bodyFriction) const {
+  ContactParams p;
+  p.mode = mode;
+  p.friction = friction ? *friction : bodyFriction;
+  p.drag = drag;
+  p.band = band;
+  return p;
+}
+
 namespace {
 
 Vec3f toVec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
 btVector3 toBt(Vec3f v) { return {v.x, v.y, v.z}; }
 
 void preTick(btDynamicsWorld* world, btScalar dt) {
-  static_cast<Coupler*>(world->getWorldUserInfo())->tick((float)dt);
+  static_cast<Coupler*>(world->getWorldUserInfo())->hookedTick((float)dt, true);
 }
 
 void postTick(btDynamicsWorld* world, btScalar dt) {
-  static_cast<Coupler*>(world->getWorldUserInfo())->finishTick((float)dt);
+  static_cast<Coupler*>(world->getWorldUserInfo())->hookedTick((float)dt, false);
 }
 
 /// Adds (sign +1) or takes back (sign -1) a multibody link's coupling force.
@@ -75,9 +92,35 @@ Coupler::~Coupler() {
 void Coupler::finishTick(float dt) {
   // Bullet clears multibody forces only when stepSimulation returns, not between its
   // internal ticks: the coupling force added before this tick is taken back after it
+  // (and forgotten, so a tick that fails before adding its own takes back nothing)
   for (Link& l : links_)
-    if (l.multi && l.dynamic) addLinkForce(l.multi, l.link, -l.force, -l.torque);
+    if (l.multi && l.dynamic) {
+      addLinkForce(l.multi, l.link, -l.force, -l.torque);
+      l.force = l.torque = btVector3(0, 0, 0);
+    }
   if (userCallback_) userCallback_(dt);
+}
+
+void Coupler::hookedTick(float dt, bool pre) noexcept {
+  // Bullet is not exception-safe: an exception unwinding through stepSimulation would
+  // leave its world half-stepped. Keep it for rethrowError(); until the caller has taken
+  // it the coupling stays off (no scene step, no impulses), so Bullet finishes the step
+  // as if the tissue were absent. A tick failing in step 3 may have pushed some bodies.
+  if (error_) return;
+  try {
+    if (pre)
+      tick(dt);
+    else
+      finishTick(dt);
+  } catch (...) {
+    error_ = std::current_exception();
+    // take back this tick's multibody forces (a failure in tick() left them unset)
+    for (Link& l : links_)
+      if (l.multi && l.dynamic) {
+        addLinkForce(l.multi, l.link, -l.force, -l.torque);
+        l.force = l.torque = btVector3(0, 0, 0);
+      }
+  }
 }
 
 ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
@@ -85,7 +128,12 @@ ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMult
   const float cell = options.sdfCellSize > 0.f ? options.sdfCellSize : 0.5f * scene_.settings().dx;
   ShapeDesc d;
   d.parts = convertShape(object->getCollisionShape(), cell);
-  d.contact = options.contact;
+  // mu_k: the override, else the object's own Bullet friction (see CouplingContact)
+  d.contact = options.contact.resolve((float)object->getFriction());
+  if (!(d.contact.friction >= 0.f) || !std::isfinite(d.contact.friction))
+    throw InvalidArgument(options.contact.friction ? "CouplingOptions.contact.friction"
+                                                   : "btCollisionObject::getFriction() of the coupled body",
+                          std::to_string(d.contact.friction), "must be finite and >= 0");
   const btTransform& t = object->getWorldTransform();
   const btQuaternion q = t.getRotation();
   d.pose = {toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};
@@ -141,6 +189,12 @@ ShapeId Coupler::shapeOf(const btCollisionObject* object) const {
   for (const Link& l : links_)
     if (l.object == object) return l.shape;
   throw InvalidArgument("Coupler::shapeOf object", "not coupled", "this collision object was never added");
+}
+
+void Coupler::rethrowError() {
+  std::exception_ptr e = error_;
+  error_ = nullptr;
+  if (e) std::rethrow_exception(e);
 }
 
 void Coupler::setUserTickCallback(std::function<void(float)> callback) { userCallback_ = std::move(callback); }

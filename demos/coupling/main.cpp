@@ -84,7 +84,10 @@ int main(int argc, char** argv) {
     mpm::io::ProgressBar progress("coupling", frames);
     char name[64];
     for (int f = 0; f <= frames; ++f) {
-      if (f > 0) world.stepSimulation(1.f / 60, 10, 1.f / 240);
+      if (f > 0) {
+        world.stepSimulation(1.f / 60, 10, 1.f / 240);
+        coupler.rethrowError();  // an error inside Bullet's tick surfaces here
+      }
       csv << scene.time();
       for (auto& b : boxes) csv << "," << b->getCenterOfMassPosition().y();
       csv << "\n";

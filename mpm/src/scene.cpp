@@ -577,16 +577,16 @@ class SceneImpl {
   void uploadShapes() {
     std::vector<BodyView> bodies;
     std::vector<PartView> parts;
-    std::vector<const std::vector<float>*> meshes;
+    std::vector<const SignedDistanceGrid*> meshes;
     bodyOfShape.assign(shapes.size(), -1);
     for (size_t i = 0; i < shapes.size(); ++i) {
       if (!shapes[i].alive) continue;
       const int b = (int)bodies.size();
       bodyOfShape[i] = b;
       bodies.push_back(makeBody(shapes[i].desc, shapes[i].state, bondedBand()));
-      appendParts(shapes[i].desc, b, [&](const std::vector<float>& v) {
-        meshes.push_back(&v);
-        return backend->meshValues(v);
+      appendParts(shapes[i].desc, b, [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
+        meshes.push_back(g.get());
+        return backend->meshValues(g);
       }, parts);
     }
     backend->releaseMeshesExcept(meshes);

@@ -24,7 +24,20 @@
 /// substep with the mass of the nodes it touches (see shape_kernels.h), so a body lighter
 /// than the tissue under it settles instead of oscillating; Bullet then receives exactly
 /// the momentum the tissue gave up.
+///
+/// Errors: Bullet is not exception-safe, so nothing the coupling throws inside a tick (the
+/// scene's SimulationDiverged, an InvalidArgument, the user tick callback's own exceptions)
+/// unwinds through stepSimulation. The first one is kept and the coupling is suspended:
+/// the rest of that stepSimulation, and any later one, runs Bullet alone (no scene step,
+/// no impulses, no user callback) until the caller takes the error:
+///
+///   world->stepSimulation(1.f / 60, 10, 1.f / 240);
+///   coupler.rethrowError();  // throws the kept exception (its own type), then resumes
+///
+/// The scene is left as the failed step left it (readable; its clock includes that tick).
+#include <exception>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -37,9 +50,39 @@ class btMultiBodyLinkCollider;
 
 namespace mpm::bullet {
 
+/// How a coupled body touches the tissue: mpm::ContactParams, except that the friction
+/// is the Bullet body's own unless set here.
+///
+/// Mapping of Bullet's contact properties (read when the body is added):
+/// - btCollisionObject::getFriction() (of the rigid body, or of each multibody link
+///   collider) becomes the shape's kinetic friction coefficient mu_k (ContactParams::
+///   friction) as it is: the tissue has no Bullet friction of its own to combine with
+///   (Bullet multiplies the two bodies' coefficients). Set `friction` to override it.
+/// - Rolling and spinning friction do not apply: they are torques Bullet's solver puts at
+///   a contact point to stand for a contact patch it does not model; on the grid the patch
+///   is resolved, node by node with Coulomb friction, so the tissue's own deformation gives
+///   that resistance.
+/// - Restitution does not apply: the grid contact removes the approaching normal velocity
+///   of each node (perfectly inelastic there), and any rebound comes from the tissue's
+///   elasticity and damping. Contact stiffness/damping and anisotropic friction neither.
+struct CouplingContact {
+  ContactMode mode = ContactMode::Frictional;
+  /// Kinetic friction coefficient mu_k, >= 0; unset: the body's getFriction().
+  std::optional<float> friction;
+  float drag = 1.f;  ///< as ContactParams::drag
+  float band = 0.f;  ///< as ContactParams::band [m]
+
+  CouplingContact() = default;
+  /// All of `p`, its friction included (an explicit override). Implicit on purpose, so
+  /// `options.contact = params` keeps meaning what it did.
+  CouplingContact(const ContactParams& p) : mode(p.mode), friction(p.friction), drag(p.drag), band(p.band) {}
+  /// The shape's contact parameters for a body whose Bullet friction is `bodyFriction`.
+  ContactParams resolve(float bodyFriction) const;
+};
+
 /// Contact settings and sampling for a coupled body.
 struct CouplingOptions {
-  ContactParams contact;
+  CouplingContact contact;
   /// Sample spacing of signed distance grids built for meshes and hulls [m]; 0 = dx / 2.
   float sdfCellSize = 0.f;
 };
@@ -63,6 +106,13 @@ class Coupler {
   /// Called after each internal tick, with the tick length [s].
   void setUserTickCallback(std::function<void(float)> callback);
 
+  /// The exception a tick threw inside stepSimulation, or null. While one is kept the
+  /// coupling is suspended (see the top of this file).
+  std::exception_ptr error() const { return error_; }
+  /// Throws the kept exception, if any, and clears it: the coupling resumes with the next
+  /// tick. Call it after each stepSimulation.
+  void rethrowError();
+
   /// Shape of a coupled object, e.g. to read its last impulse.
   ShapeId shapeOf(const btCollisionObject* object) const;
 
@@ -70,6 +120,9 @@ class Coupler {
   void tick(float dt);
   /// End of an internal tick: takes back multibody coupling forces, calls the user.
   void finishTick(float dt);
+  /// What Bullet's hook calls: tick (pre) or finishTick, with any exception caught and
+  /// kept in error() instead of unwinding through Bullet; nothing runs while one is kept.
+  void hookedTick(float dt, bool pre) noexcept;
 
  private:
   struct Link;
@@ -79,6 +132,7 @@ class Coupler {
   Scene& scene_;
   std::vector<Link> links_;
   std::function<void(float)> userCallback_;
+  std::exception_ptr error_;
 };
 
 }  // namespace mpm::bullet

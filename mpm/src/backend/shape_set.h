@@ -106,18 +106,23 @@ class ShapeSet {
     exec_.forEach(bodies_.size(), kernels::MoveBodies{bodies_.data(), dt});
   }
 
-  const float* meshValues(const std::vector<float>& values) {
-    auto& slot = meshes_[&values];
-    if (!slot) {
-      slot = std::make_unique<ExecArray<float, Exec>>();
-      slot->bind(&exec_);
-      slot->resizeDiscard(values.size());
-      exec_.copyToDevice(slot->data(), values.data(), values.size() * sizeof(float));
+  /// Device copy of a mesh grid's values. The entry holds the grid itself: keyed by the
+  /// grid's address alone, a grid allocated where a freed one had been would get the freed
+  /// one's values (and read past them if it is larger).
+  const float* meshValues(const std::shared_ptr<const SignedDistanceGrid>& grid) {
+    MeshCopy& slot = meshes_[grid.get()];
+    if (!slot.values) {
+      slot.grid = grid;
+      slot.values = std::make_unique<ExecArray<float, Exec>>();
+      slot.values->bind(&exec_);
+      slot.values->resizeDiscard(grid->values.size());
+      exec_.copyToDevice(slot.values->data(), grid->values.data(), grid->values.size() * sizeof(float));
     }
-    return slot->data();
+    return slot.values->data();
   }
 
-  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) {
+  /// Drops the copies (and the grids they hold) of meshes no live shape uses.
+  void releaseMeshesExcept(const std::vector<const SignedDistanceGrid*>& live) {
     for (auto it = meshes_.begin(); it != meshes_.end();) {
       bool keep = false;
       for (const auto* l : live) keep = keep || l == it->first;
@@ -139,7 +144,7 @@ class ShapeSet {
 
   size_t memoryBytes() const {
     size_t b = bodies_.bytes() + parts_.bytes() + stepSums_.bytes() + record_.bytes();
-    for (const auto& m : meshes_) b += m.second->bytes();
+    for (const auto& m : meshes_) b += m.second.values->bytes();
     return b;
   }
 
@@ -149,7 +154,11 @@ class ShapeSet {
   ExecArray<PartView, Exec> parts_;
   ExecArray<ContactSums, Exec> stepSums_, record_;
   bool anyDynamic_ = false;
-  std::map<const std::vector<float>*, std::unique_ptr<ExecArray<float, Exec>>> meshes_;
+  struct MeshCopy {
+    std::shared_ptr<const SignedDistanceGrid> grid;  ///< kept alive: its address stays its own
+    std::unique_ptr<ExecArray<float, Exec>> values;
+  };
+  std::map<const SignedDistanceGrid*, MeshCopy> meshes_;
 };
 
 /// A backend that holds rigid shapes: the SimBackend shape calls, answered by its ShapeSet
@@ -160,8 +169,10 @@ class ShapeBackend : public SimBackend {
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
     shapes_.set(bodies, parts);
   }
-  const float* meshValues(const std::vector<float>& values) override { return shapes_.meshValues(values); }
-  void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) override {
+  const float* meshValues(const std::shared_ptr<const SignedDistanceGrid>& grid) override {
+    return shapes_.meshValues(grid);
+  }
+  void releaseMeshesExcept(const std::vector<const SignedDistanceGrid*>& live) override {
     shapes_.releaseMeshesExcept(live);
   }
   void readBodies(std::vector<BodyView>& out) const override { shapes_.readBodies(out); }

@@ -17,6 +17,7 @@
 #include "grid/grid_update.h"
 #include "shapes/shape_kernels.h"
 #include "mpm/scene.h"
+#include "mpm/sdf_grid.h"
 
 namespace mpm {
 
@@ -87,10 +88,11 @@ class SimBackend {
   virtual StepCheck takeCheck() = 0;
   /// Replaces the rigid shapes: bodies (motion, contact model) and their parts.
   virtual void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) = 0;
-  /// Device copy of a mesh's signed distance values, uploaded once and cached by
-  /// address; entries not in `live` are released.
-  virtual const float* meshValues(const std::vector<float>& values) = 0;
-  virtual void releaseMeshesExcept(const std::vector<const std::vector<float>*>& live) = 0;
+  /// Device copy of a mesh grid's signed distance values, uploaded once; the cache holds
+  /// the grid, so its address cannot be reused by another while cached. Entries whose
+  /// grid is not in `live` are released.
+  virtual const float* meshValues(const std::shared_ptr<const SignedDistanceGrid>& grid) = 0;
+  virtual void releaseMeshesExcept(const std::vector<const SignedDistanceGrid*>& live) = 0;
   /// Bodies as they are now (poses and velocities advanced by the substeps).
   virtual void readBodies(std::vector<BodyView>& out) const = 0;
   /// Momentum each body received from the grid since the last call, then cleared.

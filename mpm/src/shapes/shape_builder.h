@@ -20,8 +20,8 @@ void validateShapeState(const ShapeState& state);
 
 /// The body of a shape in `state`; a Bonded shape's band is at least `bondedBand` [m].
 BodyView makeBody(const ShapeDesc& desc, const ShapeState& state, float bondedBand);
-/// Appends the shape's parts for body `bodyIndex`; `meshValues(values)` maps a mesh's
-/// host values to the backend's copy.
+/// Appends the shape's parts for body `bodyIndex`; `meshValues(grid)` maps a mesh's grid
+/// (its shared_ptr) to the backend's copy of its values.
 template <class MeshValues>
 void appendParts(const ShapeDesc& desc, int bodyIndex, MeshValues meshValues, std::vector<PartView>& out);
 
@@ -32,7 +32,7 @@ template <class MeshValues>
 void appendParts(const ShapeDesc& desc, int bodyIndex, MeshValues meshValues, std::vector<PartView>& out) {
   for (const Geometry& g : desc.parts) {
     PartView p = makePart(g, bodyIndex);
-    if (g.type == GeometryType::Mesh) p.sdfValues = meshValues(g.sdf->values);
+    if (g.type == GeometryType::Mesh) p.sdfValues = meshValues(g.sdf);
     out.push_back(p);
   }
 }
