@@ -34,7 +34,8 @@
 ///   world->stepSimulation(1.f / 60, 10, 1.f / 240);
 ///   coupler.rethrowError();  // throws the kept exception (its own type), then resumes
 ///
-/// The scene is left as the failed step left it (readable; its clock includes that tick).
+/// The scene is as it was before the failed tick (Scene::fetchResults), so its clock
+/// counts the completed ticks only.
 #include <exception>
 #include <functional>
 #include <optional>
