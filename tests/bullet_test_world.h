@@ -95,14 +95,33 @@ struct BulletWorld {
     for (int i = 0; i < boxes - 1; ++i)
       mb->setupRevolute(i, massEach, inertia, i - 1, btQuaternion::getIdentity(), btVector3(0, 0, 1), toPivot, toPivot,
                         true);
+    return finishChain(mb, box, at);
+  }
+  /// A floating-base chain of capsules along x (base first; radius r, half length
+  /// `halfLength` including the caps), joined end to end by spherical joints with a 2 mm
+  /// gap, base centre at `at`. Multibody world only.
+  btMultiBody* addCapsuleChain(int links, float r, float halfLength, float massEach, const btVector3& at) {
+    btCapsuleShapeX* capsule = new btCapsuleShapeX(r, 2.f * (halfLength - r));
+    shapes.emplace_back(capsule);
+    btVector3 inertia;
+    capsule->calculateLocalInertia(massEach, inertia);
+    multiBodies.emplace_back(new btMultiBody(links - 1, massEach, inertia, false, false));
+    btMultiBody* mb = multiBodies.back().get();
+    const btVector3 toPivot(halfLength + 0.001f, 0, 0);
+    for (int i = 0; i < links - 1; ++i)
+      mb->setupSpherical(i, massEach, inertia, i - 1, btQuaternion::getIdentity(), toPivot, toPivot, true);
+    return finishChain(mb, capsule, at);
+  }
+  /// Places a chain's base, adds it and one collider of `shape` per link to the world.
+  btMultiBody* finishChain(btMultiBody* mb, btCollisionShape* shape, const btVector3& at) {
     mb->finalizeMultiDof();
     mb->setBasePos(at);
     mb->setWorldToBaseRot(btQuaternion::getIdentity());
     multiWorld->addMultiBody(mb);
-    for (int link = -1; link < boxes - 1; ++link) {
+    for (int link = -1; link < mb->getNumLinks(); ++link) {
       colliders.emplace_back(new btMultiBodyLinkCollider(mb, link));
       btMultiBodyLinkCollider* c = colliders.back().get();
-      c->setCollisionShape(box);
+      c->setCollisionShape(shape);
       world->addCollisionObject(c, btBroadphaseProxy::DefaultFilter, btBroadphaseProxy::AllFilter);
       if (link < 0)
         mb->setBaseCollider(c);

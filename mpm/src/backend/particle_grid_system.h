@@ -32,6 +32,7 @@ struct ZeroNodes {
     nodes[n].mv = Vec3f{0.f, 0.f, 0.f};
     nodes[n].mx = Vec3f{0.f, 0.f, 0.f};
     nodes[n].dmv = Vec3f{0.f, 0.f, 0.f};
+    nodes[n].touch = 0.f;
   }
 };
 

@@ -17,7 +17,8 @@ namespace mpm {
   X(float, mass)       /* [kg] */                                            \
   X(float, volume0)    /* rest volume [m^3] */                               \
   X(uint32_t, object)  /* slot of the owning ParticleObject (its material) */ \
-  X(uint32_t, local)   /* index within the object, stable across sorting */
+  X(uint32_t, local)   /* index within the object, stable across sorting */ \
+  X(float, touch)      /* 1 if it ended its last substep touching a shape */
 
 /// Non-owning view of the particle arrays, passed to kernels by value.
 struct ParticleView {

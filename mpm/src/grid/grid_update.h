@@ -89,9 +89,10 @@ struct MirrorFold {
       node.mass += ghost->mass;
       node.mv += hadamard(sign, ghost->mv);
       node.dmv += hadamard(sign, ghost->dmv);
+      node.touch += ghost->touch;
       for (int a = 0; a < 3; ++a)  // the image of x is 2 plane - x
         node.mx[a] += sign[a] > 0.f ? ghost->mx[a] : 2.f * plane(a) * ghost->mass - ghost->mx[a];
-      *ghost = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}};
+      *ghost = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}, 0.f};
     }
     for (int a = 0; a < 3; ++a)
       if (walls.mirrored(a) && idx[a] == walls.thickness) {  // the images cancel the normal part

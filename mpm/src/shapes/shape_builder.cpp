@@ -118,7 +118,7 @@ BodyView makeBody(const ShapeDesc& d, const ShapeState& s, float bondedBand) {
   return b;
 }
 
-PartView makePart(const Geometry& g, int bodyIndex) {
+PartView makePart(const Geometry& g, int bodyIndex, float minHalfThickness) {
   PartView p;
   p.body = bodyIndex;
   p.halfExtents = g.halfExtents;
@@ -165,6 +165,12 @@ PartView makePart(const Geometry& g, int bodyIndex) {
       p.localUpper = g.sdf->upper();
       break;
   }
+  // Half the thinnest extent of the solid (a sampled mesh's is not known: 0)
+  float half = 0.f;
+  if (g.type == GeometryType::Box) half = std::min(g.halfExtents.x, std::min(g.halfExtents.y, g.halfExtents.z));
+  if (g.type == GeometryType::Sphere || g.type == GeometryType::Capsule) half = g.radius;
+  if (g.type == GeometryType::Cylinder) half = std::min(g.radius, g.halfHeight);
+  if (g.type != GeometryType::Plane && g.type != GeometryType::Mesh) p.band = std::max(minHalfThickness - half, 0.f);
   return p;
 }
 

@@ -46,6 +46,12 @@ struct PartView {
   Mat3f localRotation;   ///< part frame -> shape frame
   Vec3f localPosition;   ///< part origin in the shape frame
   Vec3f localLower, localUpper;  ///< the part's bounds in its own frame (planes: large)
+  /// Contact band of a part thinner than half a cell on the grid solvers, so that it is
+  /// at least that thick to the grid [m]. A thinner rod (a needle, a thread link, a
+  /// grasper jaw) can lie between node layers with no node inside it or within reach: a
+  /// capsule of radius 0.2 dx sank 4.5 cells into soft tissue under its own weight. The
+  /// cost: material rests on it as on a part of half-thickness 0.5 dx.
+  float band = 0.f;
 
   /// Signed distance [m] and outward unit normal (world) at world point x.
   MPM_HD float distance(Vec3f x, Vec3f& n) const {
@@ -119,6 +125,8 @@ MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
 /// immovable body would take from the node without changing it; pass 1 applies the
 /// contact against the body's updated velocity and records the momentum exchanged.
 /// Returns true if the node touched the part (and `sums`, the part's body's, grew).
+/// `reach`: the node is in contact up to this far outside the part even when the body's
+/// band is smaller (grid/block_grid.h, contactReach: material resting on the part).
 ///
 /// Which side: a node's own signed distance cannot tell which side of a shape thinner than
 /// a cell its material is on (a node on a half-cell plate's mid-plane, or none inside it
@@ -129,7 +137,7 @@ MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
 /// band, and the normal is the one seen from x-bar. Otherwise the node's own distance
 /// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and
 /// hold material off it.
-MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, const PartView& part,
+MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float reach, const PartView& part,
                             const BodyView* bodies, ContactSums& sums, int pass) {
   const BodyView& b = bodies[part.body];
   if (pass == 0 && !b.dynamic) return false;
@@ -143,7 +151,7 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, const Par
     phi = phiSide < phiNode ? phiSide : phiNode;
     n = nBar;
   }
-  if (phi >= b.band) return false;
+  if (phi >= fmaxf(fmaxf(b.band, part.band), reach)) return false;
   const Vec3f vNew = contactVelocity(v, b.velocityAt(x), n, b);
   const Vec3f dp = mass * (v - vNew);
   if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) return false;
@@ -152,14 +160,18 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, const Par
   return true;
 }
 
-/// Pushes a particle that ended inside a part back to its surface.
-MPM_HD void pushOutOfParts(Vec3f& x, const PartView* parts, int nParts) {
+/// Pushes a particle that ended inside a part back to its surface. Returns whether it
+/// touches a part: lies within `touchDistance` of one.
+MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float touchDistance) {
+  bool touch = false;
   for (int i = 0; i < nParts; ++i) {
     if (!parts[i].mayTouch(x, x)) continue;
     Vec3f n;
     const float phi = parts[i].distance(x, n);
     if (phi < 0.f) x -= phi * n;
+    touch = touch || phi < touchDistance;
   }
+  return touch;
 }
 
 /// Inverse of a symmetric 3x3 matrix given as xx, yy, zz, xy, xz, yz.
@@ -264,7 +276,7 @@ MPM_HD void placePart(PartView& p, const BodyView& b, float margin) {
       hi[a] = fmaxf(hi[a], w[a]);
     }
   }
-  const float grow = margin + (b.band > 0.f ? b.band : 0.f);
+  const float grow = margin + fmaxf(fmaxf(b.band, p.band), 0.f);
   p.boundsLower = lo - Vec3f{grow, grow, grow};
   p.boundsUpper = hi + Vec3f{grow, grow, grow};
 }

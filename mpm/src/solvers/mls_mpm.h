@@ -28,7 +28,7 @@ struct MlsMpm {
       const float m = P.mass[p];
       const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
       const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * apicInverseInertia(geo)) * tau;
-      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], affine, P.x[p], nodes);
+      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], affine, P.x[p], P.touch[p], nodes);
     }
   };
 

@@ -52,7 +52,7 @@ struct PbMpm {
       const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
       const Mat3f Cc = C + relaxation * ((1.f / dt) * (Fc * inverse(F) - I) - C);
       const float m = P.mass[p];
-      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], nodes);
+      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], P.touch[p], nodes);
     }
   };
 

@@ -39,7 +39,7 @@ struct StandardMpm {
       const Float4 t1 = Float4::make(0.f, impulse.m[0][1], impulse.m[1][1], impulse.m[2][1]);
       const Float4 t2 = Float4::make(0.f, impulse.m[0][2], impulse.m[1][2], impulse.m[2][2]);
       const Float4 q0 = Float4::make(m, mv.x, mv.y, mv.z);
-      const Float4 x4 = Float4::make(0.f, xp.x, xp.y, xp.z);
+      const Float4 x4 = Float4::make(P.touch[p], xp.x, xp.y, xp.z);
       float dw[3][3];
       st.gradients(geo.invDx, dw);
       const float(&w)[3][3] = st.w;

@@ -42,10 +42,10 @@ MPM_HD float apicInverseInertia(const GridGeometry& geo) { return 4.f * geo.invD
 /// APIC scatter of one particle: node momentum w (mv + A (x_i - x_p)) and mass w m.
 /// `affine` is A: m C for APIC and PB-MPM, m C - dt V0 M^-1 tau for MLS-MPM. `Nodes` is
 /// where the nodes live (the global grid with the backend's accumulate, or a CPU block
-/// tile). kCentroid: also accumulate w m x_p (only shape contact needs it).
+/// tile). kCentroid: also accumulate w m x_p and w m touch (only shape contact needs them).
 template <bool kCentroid, class Nodes>
 MPM_HD void apicScatter(const QuadraticStencil& st, float dx, float m, Vec3f mv, const Mat3f& affine, Vec3f xp,
-                        Nodes& nodes) {
+                        float touch, Nodes& nodes) {
   const int* base = st.base;
   const float(&w)[3][3] = st.w;
   // {mass, momentum} at node offset d: {m, mv + A d}, built incrementally along each axis
@@ -55,7 +55,7 @@ MPM_HD void apicScatter(const QuadraticStencil& st, float dx, float m, Vec3f mv,
   const Float4 q0 = Float4::make(m, a0.x, a0.y, a0.z);
   const Float4 qx = Float4::make(0.f, ax.x, ax.y, ax.z), qy = Float4::make(0.f, ay.x, ay.y, ay.z),
                qz = Float4::make(0.f, az.x, az.y, az.z);
-  const Float4 x4 = Float4::make(0.f, xp.x, xp.y, xp.z);
+  const Float4 x4 = Float4::make(touch, xp.x, xp.y, xp.z);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) {
       const Float4 qij = q0 + (float)i * qx + (float)j * qy;
@@ -101,6 +101,11 @@ MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, cons
       Mat3f::fromColumns(dx * (bi.xyz() - fx.x * v), dx * (bj.xyz() - fx.y * v), dx * (bk.xyz() - fx.z * v));
 }
 
+/// A particle touches a shape when its centre is within this of the surface: its own half
+/// spacing (a particle resting on a surface sits half a spacing from it), with a quarter
+/// more so that one resting there still touches while it vibrates.
+MPM_HD float touchDistance(float volume0) { return 0.625f * cbrtf(volume0); }
+
 /// The end of every solver's G2P: push the particle out of the shapes it ended inside,
 /// then check it (state finite, stencil on the grid) and report its speed.
 MPM_HD StepCheck finishParticle(uint32_t p, const ParticleView& P, const GridGeometry& geo, const PartView* parts,
@@ -109,7 +114,7 @@ MPM_HD StepCheck finishParticle(uint32_t p, const ParticleView& P, const GridGeo
   const Vec3f x = P.x[p], v = P.v[p];
   const float sum = x.x + x.y + x.z + v.x + v.y + v.z + trace(P.F[p]);
   if (!isFinite(sum) || !geo.stencilInside(x)) c.firstBadParticle = p;
-  if (nParts) pushOutOfParts(P.x[p], parts, nParts);
+  P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, touchDistance(P.volume0[p])) ? 1.f : 0.f;
   c.maxSpeed2 = dot(v, v);
   return c;
 }
@@ -171,9 +176,10 @@ struct GridNodes {
     Add::add(n.mv.y, q[2]);
     Add::add(n.mv.z, q[3]);
   }
-  /// Adds w m x_p (lanes 1-3).
+  /// Adds w m touch_p (lane 0) and w m x_p (lanes 1-3).
   MPM_HD void addCentroid(int i, int j, int k, const Float4& mx) const {
     GridNode& n = grid.node(i, j, k);
+    if (mx[0] != 0.f) Add::add(n.touch, mx[0]);
     Add::add(n.mx.x, mx[1]);
     Add::add(n.mx.y, mx[2]);
     Add::add(n.mx.z, mx[3]);

@@ -46,7 +46,7 @@ struct BlockTile {
   static constexpr int kNodes = kEdge * kEdge * kEdge;
   int origin[3];
   Float4 mv[kNodes];   ///< {mass, momentum}; {mass, velocity} in G2P
-  Float4 mx[kNodes];   ///< {0, sum w m x_p}
+  Float4 mx[kNodes];   ///< {sum w m touch_p, sum w m x_p}
   Float4 dmv[kNodes];  ///< {0, stress impulse}; {0, velocity before the force} in G2P
 
   int index(int i, int j, int k) const {
@@ -88,7 +88,10 @@ struct BlockTile {
     forEachGridNode(grid, [this](int t, GridNode& g) {
       g.mass += mv[t][0];
       g.mv += mv[t].xyz();
-      if (kMx) g.mx += mx[t].xyz();
+      if (kMx) {
+        g.touch += mx[t][0];
+        g.mx += mx[t].xyz();
+      }
       if (kDmv) g.dmv += dmv[t].xyz();
     });
   }
@@ -292,7 +295,8 @@ struct CpuExec {
             const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
                                                          (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
                                                          (float)(o[2] + (n & kBlockMask))};
-            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, parts[p], bodies, bodySums, pass);
+            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, contactReach(node, geo_), parts[p],
+                            bodies, bodySums, pass);
           }
         }
         touched_[slot] = any;

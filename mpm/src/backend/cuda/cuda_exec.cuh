@@ -66,7 +66,9 @@ static __global__ void contactKernel(GridView grid, const PartView* parts, int n
   for (int p = 0; p < nParts; ++p) {
     if (!parts[p].mayTouch(x, x)) continue;
     ContactSums s{};
-    if (!contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, parts[p], bodies, s, pass)) continue;
+    if (!contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, contactReach(node, grid.geo), parts[p],
+                         bodies, s, pass))
+      continue;
     float* dst = &out[parts[p].body].impulse[0];
     const float* src = &s.impulse[0];
     for (int k = 0; k < kContactSumFloats; ++k) atomicAdd(dst + k, src[k]);

@@ -1,0 +1,108 @@
+// Shapes thinner than a cell resting on tissue (issue 13): needles, thread links, probes
+// and grasper jaws are thinner than a grid cell in real scenes. A Bullet capsule 4 cm long,
+// of radius 0.2, 0.4 or 0.6 dx, dropped 3 cm onto a 30 kPa block 6 cm thick (dx = 1 cm),
+// must come to rest on the block's surface and stay there for 5 s, as a rigid body and as
+// the links of a multibody chain, with every grid solver. Before parts thinner than a cell
+// had their contact band (PartView::band), radii 0.2 and 0.4 dx sank through the block.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "bullet_test_world.h"
+#include "mpm/scene.h"
+#include "mpm_bullet/coupler.h"
+#include "solver_cases.h"
+
+namespace mpm {
+namespace {
+
+constexpr float kDx = 0.01f, kG = 9.81f, kTop = 0.06f, kHalfLength = 0.02f;
+
+enum class Body { Rigid2g, Rigid02g, ChainLinks2g };
+std::string bodyName(Body b) {
+  return b == Body::Rigid2g ? "Rigid2g" : b == Body::Rigid02g ? "Rigid02g" : "ChainLinks2g";
+}
+
+struct Resting {
+  float lowest = 0;   ///< the lowest capsule's bottom above the block's top at the end [cells]
+  float highest = 0;  ///< the highest one's [cells]
+};
+
+Resting dropCapsules(Body body, float radiusCells, SolverType solver) {
+  SceneSettings st;
+  st.solver = solver;
+  st.backend = Backend::Cpu;
+  st.dx = kDx;
+  st.domain.lower = {-0.1f, -0.02f, -0.1f};
+  st.domain.upper = {0.1f, 0.15f, 0.1f};
+  st.gravity = {0.f, -kG, 0.f};
+  Scene scene(st);
+  ParticleObjectDesc block;
+  block.center = {0.f, 0.5f * kTop, 0.f};
+  block.halfExtents = {0.05f, 0.5f * kTop, 0.05f};
+  block.material.youngsModulus = 3e4f;
+  block.material.poissonRatio = 0.3f;
+  scene.addParticleObject(block);
+
+  const bool chain = body == Body::ChainLinks2g;
+  test::BulletWorld bw(chain ? test::WorldType::MultiBody : test::WorldType::Discrete, kG);
+  btRigidBody* ground = bw.addGround();
+  const float r = radiusCells * kDx, drop = 0.03f;
+  const float mass = body == Body::Rigid02g ? 2e-4f : 2e-3f;
+  std::vector<btCollisionObject*> capsules;
+  bullet::Coupler coupler(bw.world.get(), scene);
+  coupler.addRigidBody(ground);
+  if (!chain) {
+    btRigidBody* c = bw.addBody(new btCapsuleShapeX(r, 2.f * kHalfLength - 2.f * r), mass,
+                                btTransform(btQuaternion::getIdentity(), btVector3(0, kTop + r + drop, 0)));
+    coupler.addRigidBody(c);
+    capsules.push_back(c);
+  } else {
+    // three capsule links along x, joined by spherical joints, a floating base
+    btMultiBody* mb = bw.addCapsuleChain(3, r, kHalfLength, mass, btVector3(-2.f * kHalfLength - 0.002f, kTop + r + drop, 0));
+    coupler.addMultiBody(mb);
+    capsules = bw.chainColliders(mb);
+  }
+  for (int f = 0; f < 300; ++f) bw.world->stepSimulation(1.f / 60, 10, 1.f / 240);
+  coupler.rethrowError();
+
+  Resting res{1e9f, -1e9f};
+  for (btCollisionObject* c : capsules) {
+    btVector3 lo, hi;
+    c->getCollisionShape()->getAabb(c->getWorldTransform(), lo, hi);
+    const float above = ((float)lo.y() - kTop) / kDx;
+    res.lowest = std::fmin(res.lowest, above);
+    res.highest = std::fmax(res.highest, above);
+  }
+  return res;
+}
+
+class ThinCapsules : public ::testing::TestWithParam<std::tuple<Body, float, SolverType>> {};
+
+TEST_P(ThinCapsules, RestOnTheTissueSurface) {
+  const auto [body, radius, solver] = GetParam();
+  const Resting r = dropCapsules(body, radius, solver);
+  std::printf("%s r = %.1f dx %s: after 5 s the capsules' bottoms lie %.3f ... %.3f dx above the block's top\n",
+              bodyName(body).c_str(), radius, test::solverName(solver).c_str(), r.lowest, r.highest);
+  // On the surface: not sunk more than 0.2 dx into it. Above it by at most the contact
+  // band that makes a part half a cell thick... 0.75 dx thick (PartView::band) less the
+  // capsule's radius, plus 0.2 dx.
+  EXPECT_GT(r.lowest, -0.2f) << "sank into the tissue";
+  EXPECT_LT(r.highest, std::fmax(0.75f - radius, 0.f) + 0.2f) << "rests above the tissue";
+}
+
+INSTANTIATE_TEST_SUITE_P(AllRadii, ThinCapsules,
+                         ::testing::Combine(::testing::Values(Body::Rigid2g, Body::Rigid02g, Body::ChainLinks2g),
+                                            ::testing::Values(0.2f, 0.4f, 0.6f), test::allSolvers()),
+                         [](const ::testing::TestParamInfo<std::tuple<Body, float, SolverType>>& info) {
+                           return bodyName(std::get<0>(info.param)) + "_R" +
+                                  std::to_string((int)std::lround(10 * std::get<1>(info.param))) + "tenths_" +
+                                  test::solverName(std::get<2>(info.param));
+                         });
+
+}  // namespace
+}  // namespace mpm
