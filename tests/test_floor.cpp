@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "bullet_test_world.h"
+#include "column_layers.h"
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
 #include "solver_cases.h"
@@ -155,22 +156,9 @@ FloorResult restOnFloor(Floor floor, float offset, SolverType solver) {
   // the centre column's top and bottom particle layers
   std::vector<Vec3f> x;
   scene.readPositions(id, x);
-  float yMin = 1e9f, yMax = -1e9f;
-  for (const Vec3f& p : x) { yMin = std::min(yMin, p.y); yMax = std::max(yMax, p.y); }
-  std::vector<size_t> upper, lower;
-  for (size_t i = 0; i < x.size(); ++i) {
-    if (std::fabs(x[i].x) > kDx || std::fabs(x[i].z) > kDx) continue;
-    if (x[i].y > yMax - 1e-4f) upper.push_back(i);
-    if (x[i].y < yMin + 1e-4f) lower.push_back(i);
-  }
-  auto mean = [&](const std::vector<size_t>& ix) {
-    double t = 0;
-    for (size_t i : ix) t += x[i].y;
-    return t / ix.size();
-  };
-  const double length0 = mean(upper) - mean(lower), bottom0 = mean(lower);
-  const double z0 = yMin - top, z1 = yMax - top;
-  const double uniaxial = kRho * kG / kE * ((kH * z1 - 0.5 * z1 * z1) - (kH * z0 - 0.5 * z0 * z0));
+  const test::ColumnLayers layers(x, kDx);
+  const double length0 = layers.length(x), bottom0 = layers.meanHeight(x, layers.bottom);
+  const double uniaxial = layers.uniaxialShortening(kRho, kG, kE, kH, top);
 
   const double period = 4.0 * kH / std::sqrt(kE / kRho);
   const int perPeriod = 20;
@@ -187,8 +175,8 @@ FloorResult restOnFloor(Floor floor, float offset, SolverType solver) {
   for (int f = 0; f < samples; ++f) {
     step();
     scene.readPositions(id, x);
-    r.shortening += length0 - (mean(upper) - mean(lower));
-    r.sink += (bottom0 - mean(lower)) / kDx;
+    r.shortening += length0 - layers.length(x);
+    r.sink += (bottom0 - layers.meanHeight(x, layers.bottom)) / kDx;
   }
   if (coupler) coupler->rethrowError();
   r.shortening /= samples;

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <vector>
 
+#include "column_layers.h"
 #include "mpm/scene.h"
 #include "solver_cases.h"
 
@@ -38,27 +39,15 @@ TEST_P(SelfWeight, ColumnOnSlipFloorSettlesToUniaxialShortening) {
   d.material.density = rho;
   const ParticleObjectId id = scene.addParticleObject(d);
 
-  // top and bottom particle layers, by their initial heights
   std::vector<Vec3f> x;
   scene.readPositions(id, x);
-  float yMin = 1e9f, yMax = -1e9f;
-  for (const Vec3f& p : x) { yMin = std::min(yMin, p.y); yMax = std::max(yMax, p.y); }
-  std::vector<size_t> top, bottom;
-  for (size_t i = 0; i < x.size(); ++i) {
-    if (x[i].y > yMax - 1e-4f) top.push_back(i);
-    if (x[i].y < yMin + 1e-4f) bottom.push_back(i);
-  }
+  const test::ColumnLayers layers(x);
   auto length = [&] {
     scene.readPositions(id, x);
-    double t = 0, b = 0;
-    for (size_t i : top) t += x[i].y;
-    for (size_t i : bottom) b += x[i].y;
-    return t / top.size() - b / bottom.size();
+    return layers.length(x);
   };
   const double L0 = length();
-  // shortening between the layer centres z0 = yMin and z1 = yMax measured from the base
-  const double z0 = yMin - 2 * dx, z1 = yMax - 2 * dx;
-  const double expected = rho * g / E * ((H * z1 - 0.5 * z1 * z1) - (H * z0 - 0.5 * z0 * z0));
+  const double expected = layers.uniaxialShortening(rho, g, E, H, 2 * dx);
 
   const double period = 4.0 * H / std::sqrt(E / rho);
   const int perPeriod = 40;

@@ -144,10 +144,17 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float rea
   Vec3f n, nBar;
   const float phiNode = part.distance(x, n);
   const float phiBar = part.distance(xbar, nBar);
+  const float phiSide = phiBar + dot(nBar, x - xbar);
   const bool otherSide = dot(n, nBar) < 0.f;
+  // A node on or inside the part whose material lies outside, deeper below the surface
+  // that material faces than below its own nearest face: that face is not where the
+  // material meets the part (a side face at the seam of a compound's two boxes, or near a
+  // box's edge), so the material's face decides. At a compound's seam the side faces
+  // otherwise held the material sideways only (a slab over the seam 0.56 of the uniaxial
+  // shortening).
+  const bool facesElsewhere = phiNode <= 0.f && phiBar > 0.f && phiSide < phiNode;
   float phi = phiNode;
-  if (otherSide) {
-    const float phiSide = phiBar + dot(nBar, x - xbar);
+  if (otherSide || facesElsewhere) {
     phi = phiSide < phiNode ? phiSide : phiNode;
     n = nBar;
   }
