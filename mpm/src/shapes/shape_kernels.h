@@ -137,8 +137,21 @@ MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
 /// band, and the normal is the one seen from x-bar. Otherwise the node's own distance
 /// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and
 /// hold material off it.
-MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float reach, const PartView& part,
-                            const BodyView* bodies, ContactSums& sums, int pass) {
+/// Whether `point`, on part `p`'s surface, lies on or inside another part of the same body:
+/// that face is inside a compound (two boxes meeting at a seam), not a surface of it.
+/// A body's parts are consecutive in `parts`.
+MPM_HD bool onSiblingPart(const PartView* parts, int nParts, int p, Vec3f point) {
+  Vec3f n;
+  for (int q = p - 1; q >= 0 && parts[q].body == parts[p].body; --q)
+    if (parts[q].distance(point, n) <= 0.f) return true;
+  for (int q = p + 1; q < nParts && parts[q].body == parts[p].body; ++q)
+    if (parts[q].distance(point, n) <= 0.f) return true;
+  return false;
+}
+
+MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float reach, const PartView* parts, int nParts,
+                            int p, const BodyView* bodies, ContactSums& sums, int pass) {
+  const PartView& part = parts[p];
   const BodyView& b = bodies[part.body];
   if (pass == 0 && !b.dynamic) return false;
   Vec3f n, nBar;
@@ -146,13 +159,12 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float rea
   const float phiBar = part.distance(xbar, nBar);
   const float phiSide = phiBar + dot(nBar, x - xbar);
   const bool otherSide = dot(n, nBar) < 0.f;
-  // A node on or inside the part whose material lies outside, deeper below the surface
-  // that material faces than below its own nearest face: that face is not where the
-  // material meets the part (a side face at the seam of a compound's two boxes, or near a
-  // box's edge), so the material's face decides. At a compound's seam the side faces
-  // otherwise held the material sideways only (a slab over the seam 0.56 of the uniaxial
-  // shortening).
-  const bool facesElsewhere = phiNode <= 0.f && phiBar > 0.f && phiSide < phiNode;
+  // A node on or inside the part whose nearest face is inside the compound (on another of
+  // the body's parts) while its material lies outside: the material's face decides. At the
+  // seam of two boxes the side faces otherwise held a slab sideways only (0.56 of its
+  // uniaxial shortening over the seam).
+  const bool facesElsewhere = phiNode <= 0.f && phiBar > 0.f && phiSide < phiNode &&
+                              onSiblingPart(parts, nParts, p, x - phiNode * n);
   float phi = phiNode;
   if (otherSide || facesElsewhere) {
     phi = phiSide < phiNode ? phiSide : phiNode;

@@ -140,7 +140,7 @@ struct MtledContact {
     if (carrier[i] != i) return;
     for (int p = 0; p < nParts; ++p) {
       if (!parts[p].mayTouch(x[i], x[i])) continue;
-      contactNodePart(x[i], mass[i], v[i], x[i], 0.f, parts[p], bodies, sums[parts[p].body], pass);
+      contactNodePart(x[i], mass[i], v[i], x[i], 0.f, parts, nParts, p, bodies, sums[parts[p].body], pass);
     }
   }
 };

@@ -295,8 +295,8 @@ struct CpuExec {
             const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
                                                          (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
                                                          (float)(o[2] + (n & kBlockMask))};
-            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, contactReach(node, geo_), parts[p],
-                            bodies, bodySums, pass);
+            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, contactReach(node, geo_), parts,
+                            nParts, p, bodies, bodySums, pass);
           }
         }
         touched_[slot] = any;
