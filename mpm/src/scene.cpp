@@ -567,14 +567,15 @@ class SceneImpl {
     r.desc = ShapeDesc{};  // drops its mesh
   }
 
-  /// Half a cell on a grid, 0 for MTLED (whose nodes are tested at their own positions):
-  /// - the least contact band of a Bonded shape, so the node layer nearest its face always
-  ///   follows it (with band 0 the layer just outside the face is free: a bonded plate let
-  ///   go of a cylinder it pulled once it had moved about a cell, and a compressed one
-  ///   measured 23 % soft at H = 10 dx);
-  /// - the least half-thickness of a part: a thinner rod, plate or sphere gets the band
-  ///   that makes up the difference (PartView::band).
-  float halfCellOnGrid() const { return solverTraits(settings.solver).meshless ? 0.f : 0.5f * settings.dx; }
+  /// Least contact band of a Bonded shape: half a cell on a grid, so the node layer
+  /// nearest its face always follows it (with band 0 the layer just outside the face is
+  /// free: a bonded plate let go of a cylinder it pulled once it had moved about a cell,
+  /// and a compressed one measured 23 % soft at H = 10 dx). MTLED's nodes are tested at
+  /// their own positions: its band is the shape's own.
+  float bondedBand() const { return solverTraits(settings.solver).meshless ? 0.f : 0.5f * settings.dx; }
+  /// Least half-thickness of a part on a grid, 0.75 dx: a thinner rod, plate or sphere
+  /// gets the band that makes up the difference (PartView::band). MTLED: none.
+  float thinPartHalfThickness() const { return solverTraits(settings.solver).meshless ? 0.f : 0.75f * settings.dx; }
 
   /// Hands the live shapes to the backend (bodies in shape-slot order, then parts).
   void uploadShapes() {
@@ -586,8 +587,8 @@ class SceneImpl {
       if (!shapes[i].alive) continue;
       const int b = (int)bodies.size();
       bodyOfShape[i] = b;
-      bodies.push_back(makeBody(shapes[i].desc, shapes[i].state, halfCellOnGrid()));
-      appendParts(shapes[i].desc, b, 1.5f * halfCellOnGrid(), [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
+      bodies.push_back(makeBody(shapes[i].desc, shapes[i].state, bondedBand()));
+      appendParts(shapes[i].desc, b, thinPartHalfThickness(), [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
         meshes.push_back(g.get());
         return backend->meshValues(g);
       }, parts);

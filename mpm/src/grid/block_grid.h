@@ -25,8 +25,8 @@ struct GridNode {
   /// Standard MPM only: the momentum the stress adds over the substep, dt f_int; the
   /// node's velocity before the update (for the FLIP increment) once the grid is updated.
   Vec3f dmv;
-  /// sum of w m over the particles touching a shape (ParticleView::touch): the node's
-  /// material rests on a shape, so its contact region reaches half a cell outside it.
+  /// sum of w m over the particles touching a shape (ParticleView::touch): how much of the
+  /// node's material rests on a shape (contactReach).
   float touch;
 };
 

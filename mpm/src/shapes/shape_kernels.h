@@ -46,11 +46,12 @@ struct PartView {
   Mat3f localRotation;   ///< part frame -> shape frame
   Vec3f localPosition;   ///< part origin in the shape frame
   Vec3f localLower, localUpper;  ///< the part's bounds in its own frame (planes: large)
-  /// Contact band of a part thinner than half a cell on the grid solvers, so that it is
-  /// at least that thick to the grid [m]. A thinner rod (a needle, a thread link, a
-  /// grasper jaw) can lie between node layers with no node inside it or within reach: a
-  /// capsule of radius 0.2 dx sank 4.5 cells into soft tissue under its own weight. The
-  /// cost: material rests on it as on a part of half-thickness 0.5 dx.
+  /// Contact band of a part whose half-thickness is under 0.75 dx on the grid solvers,
+  /// making it that thick to the grid [m]. A thinner rod (a needle, a thread link, a
+  /// grasper jaw) can lie between node layers with no node inside it or within reach (from
+  /// a cell-centred rod the nodes below are 0.71 dx away): a capsule of radius 0.2 dx sank
+  /// 4.5 cells into soft tissue under its own weight, and still did with a 0.5 dx minimum.
+  /// The cost: material rests on it as on a part of half-thickness 0.75 dx.
   float band = 0.f;
 
   /// Signed distance [m] and outward unit normal (world) at world point x.
@@ -121,6 +122,18 @@ MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
   s.inertia[5] -= m * r.y * r.z;
 }
 
+/// Whether `point`, on part `p`'s surface, lies on or inside another part of the same body:
+/// that face is inside a compound (two boxes meeting at a seam), not a surface of it.
+/// A body's parts are consecutive in `parts`.
+MPM_HD bool onSiblingPart(const PartView* parts, int nParts, int p, Vec3f point) {
+  Vec3f n;
+  for (int q = p - 1; q >= 0 && parts[q].body == parts[p].body; --q)
+    if (parts[q].distance(point, n) <= 0.f) return true;
+  for (int q = p + 1; q < nParts && parts[q].body == parts[p].body; ++q)
+    if (parts[q].distance(point, n) <= 0.f) return true;
+  return false;
+}
+
 /// Contact of one grid node with one part. Pass 0 (dynamic bodies only) measures what an
 /// immovable body would take from the node without changing it; pass 1 applies the
 /// contact against the body's updated velocity and records the momentum exchanged.
@@ -137,18 +150,6 @@ MPM_HD void addContact(ContactSums& s, Vec3f dp, Vec3f r, float m) {
 /// band, and the normal is the one seen from x-bar. Otherwise the node's own distance
 /// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and
 /// hold material off it.
-/// Whether `point`, on part `p`'s surface, lies on or inside another part of the same body:
-/// that face is inside a compound (two boxes meeting at a seam), not a surface of it.
-/// A body's parts are consecutive in `parts`.
-MPM_HD bool onSiblingPart(const PartView* parts, int nParts, int p, Vec3f point) {
-  Vec3f n;
-  for (int q = p - 1; q >= 0 && parts[q].body == parts[p].body; --q)
-    if (parts[q].distance(point, n) <= 0.f) return true;
-  for (int q = p + 1; q < nParts && parts[q].body == parts[p].body; ++q)
-    if (parts[q].distance(point, n) <= 0.f) return true;
-  return false;
-}
-
 MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float reach, const PartView* parts, int nParts,
                             int p, const BodyView* bodies, ContactSums& sums, int pass) {
   const PartView& part = parts[p];
