@@ -2,7 +2,8 @@
 """Force error against CPU time on the seed 004 cylinder, one line per solver through its
 resolutions (the choice a user makes: the lowest line at the time they can spend), from
 bench_accuracy's CSV. Left: bonded compression against the CalculiX extrapolated curve;
-right: slip compression against the closed form. Plotting only: needs matplotlib, which
+middle: slip compression against the closed form; right: bonded extension against MTLED's
+0.5 cm curve (whose own point, compared with itself, is left out). Plotting only: needs matplotlib, which
 bench/run_accuracy.sh installs from PyPI into bench/.venv; the library never does.
 
     bench/plot_accuracy.py bench/results/accuracy.csv bench/results/accuracy.png
@@ -19,7 +20,8 @@ from matplotlib.ticker import FuncFormatter, NullFormatter  # noqa: E402
 
 LABELS = {"Mtled": "MTLED", "MlsMpm": "MLS-MPM", "StandardMpm": "standard MPM", "PbMpm": "PB-MPM"}
 PANELS = [("compression-bonded", "bonded compression 20 %\n(vs CalculiX, extrapolated)"),
-          ("compression-slip", "slip compression 20 %\n(vs closed form)")]
+          ("compression-slip", "slip compression 20 %\n(vs closed form)"),
+          ("extension-bonded", "bonded extension 20 %\n(vs MTLED at 0.5 cm)")]
 
 
 def main(csv_path, png_path):
@@ -28,11 +30,11 @@ def main(csv_path, png_path):
     points = defaultdict(list)  # (case, solver) -> [(CPU s, L2 error %, resolution cm)]
     with open(csv_path, newline="") as f:
         for row in csv.DictReader(f):
-            if row["ok"] != "1" or not row["l2_error"]:
+            if row["ok"] != "1" or not row["l2_error"] or float(row["l2_error"]) <= 0:
                 continue
             points[(row["case"], row["solver"])].append(
                 (float(row["cpu_s"]), 100 * float(row["l2_error"]), float(row["resolution_cm"])))
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.4), dpi=120, sharey=True)
+    fig, axes = plt.subplots(1, len(PANELS), figsize=(14, 4.4), dpi=120, sharey=True)
     colours = dict(zip(LABELS, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
     for ax, (case, title) in zip(axes, PANELS):
         for solver in LABELS:

@@ -26,7 +26,7 @@ struct GridNode {
   /// node's velocity before the update (for the FLIP increment) once the grid is updated.
   Vec3f dmv;
   /// sum of w m over the particles touching a shape (ParticleView::touch): how much of the
-  /// node's material rests on a shape (contactReach).
+  /// node's material rests on a shape (materialTouches).
   float touch;
 };
 
@@ -88,23 +88,13 @@ struct GridGeometry {
   }
 };
 
-/// How far outside a shape a node is still in contact with it [m], beyond the shape's own
-/// band: 0.65 dx when at least 30 % of the node's material touches a shape, else 0.
-///
-/// Why: with only the nodes inside a shape in contact, the first node layer outside its
-/// surface is free while material rests on it. When that layer lies less than about half
-/// a cell above the surface, no particle lies between it and the surface to hold it up:
-/// the material above pushes it into the shape, the particles are pushed out again, and
-/// their deformation gradients keep the compression (a 20 kPa slab on a plane 1e-6 m
-/// below a node layer shortened 5.5 times the uniaxial value, 1.06 times with the plane
-/// 1e-6 m above). Holding the nodes up to 0.65 dx outside keeps the slab within 0.91-1.10
-/// of it wherever the surface falls (0.5 dx: up to 1.21, at the half-cell offset).
-/// Only material that touches: a band for every node would stop material approaching a
-/// surface early (a pressing sphere's Hertz force +45 % at R = 4 dx with any touching
-/// particle; with the 30 % share its L2 error falls from 29.7 % to 20.4 %).
-MPM_HD float contactReach(const GridNode& n, const GridGeometry& geo) {
-  return n.touch >= 0.3f * n.mass ? 0.65f * geo.dx : 0.f;
-}
+/// Whether a node's material touches a shape: at least 30 % of its mass lies on particles
+/// within their touch distance of one (ParticleView::touch). Such a node is in contact
+/// beyond a shape's surface (shape_kernels.h, contactNodePart: kRestingReach,
+/// kGluedReach). Only material that touches: a reach for every node would stop material
+/// approaching a surface early (a pressing sphere's Hertz force +45 % at R = 4 dx with any
+/// touching particle; with the 30 % share its L2 error falls from 29.7 % to 20.4 %).
+MPM_HD bool materialTouches(const GridNode& n) { return n.touch >= 0.3f * n.mass; }
 
 /// Four floats moved together: a node's mass and momentum (or velocity) as the transfers
 /// read and write them, {mass, x, y, z}. On the CPU a tile keeps its nodes this way, 16

@@ -134,12 +134,35 @@ MPM_HD bool onSiblingPart(const PartView* parts, int nParts, int p, Vec3f point)
   return false;
 }
 
+/// How far outside a part a node whose material touches it (grid/block_grid.h,
+/// materialTouches) is still in contact with it, in cells.
+///
+/// Resting material: with only the nodes inside a shape in contact, the first node layer
+/// outside its surface is free while material rests on it. When that layer lies less than
+/// about half a cell above the surface, no particle lies between it and the surface to hold
+/// it up: the material above pushes it into the shape, the particles are pushed out again,
+/// and their deformation gradients keep the compression (a 20 kPa slab on a plane 1e-6 m
+/// below a node layer shortened 5.5 times the uniaxial value, 1.06 times with the plane
+/// 1e-6 m above). Holding the nodes up to 0.65 dx outside keeps the slab within 0.91-1.10
+/// of it wherever the surface falls (0.5 dx: up to 1.21, at the half-cell offset).
+constexpr float kRestingReach = 0.65f;
+/// Glued material (Bonded): a node whose material is glued to the part moves with it while
+/// it lies within a cell; the 30 % touching share, not this distance, ends the contact (on
+/// a lattice at rest the share falls below 30 % at 0.69 dx). With the resting reach a node
+/// pulled away from a bonded plate went free at 0.65 dx while its material was still glued:
+/// the glued particles slid inward with the necking material below (the seed 004 cylinder
+/// pulled 20 % had its top face 3 mm narrower than the plate, H/dx = 14) and the force fell
+/// 4-6 % short of MTLED's, no better on finer grids.
+constexpr float kGluedReach = 1.f;
+
 /// Contact of one grid node with one part. Pass 0 (dynamic bodies only) measures what an
 /// immovable body would take from the node without changing it; pass 1 applies the
 /// contact against the body's updated velocity and records the momentum exchanged.
 /// Returns true if the node touched the part (and `sums`, the part's body's, grew).
-/// `reach`: the node is in contact up to this far outside the part even when the body's
-/// band is smaller (grid/block_grid.h, contactReach: material resting on the part).
+/// `touchingCell`: the cell size dx when the node's material touches a shape
+/// (grid/block_grid.h, materialTouches), else 0; such a node is in contact up to
+/// kRestingReach (kGluedReach when bonded) cells outside the part even when the body's
+/// band is smaller.
 ///
 /// Which side: a node's own signed distance cannot tell which side of a shape thinner than
 /// a cell its material is on (a node on a half-cell plate's mid-plane, or none inside it
@@ -150,7 +173,7 @@ MPM_HD bool onSiblingPart(const PartView* parts, int nParts, int p, Vec3f point)
 /// band, and the normal is the one seen from x-bar. Otherwise the node's own distance
 /// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and
 /// hold material off it.
-MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float reach, const PartView* parts, int nParts,
+MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float touchingCell, const PartView* parts, int nParts,
                             int p, const BodyView* bodies, ContactSums& sums, int pass) {
   const PartView& part = parts[p];
   const BodyView& b = bodies[part.body];
@@ -171,6 +194,7 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float rea
     phi = phiSide < phiNode ? phiSide : phiNode;
     n = nBar;
   }
+  const float reach = (b.mode == kContactBonded ? kGluedReach : kRestingReach) * touchingCell;
   if (phi >= fmaxf(fmaxf(b.band, part.band), reach)) return false;
   const Vec3f vNew = contactVelocity(v, b.velocityAt(x), n, b);
   const Vec3f dp = mass * (v - vNew);

@@ -295,7 +295,7 @@ struct CpuExec {
             const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
                                                          (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
                                                          (float)(o[2] + (n & kBlockMask))};
-            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, contactReach(node, geo_), parts,
+            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, materialTouches(node) ? geo_.dx : 0.f, parts,
                             nParts, p, bodies, bodySums, pass);
           }
         }

@@ -66,7 +66,7 @@ static __global__ void contactKernel(GridView grid, const PartView* parts, int n
   for (int p = 0; p < nParts; ++p) {
     if (!parts[p].mayTouch(x, x)) continue;
     ContactSums s{};
-    if (!contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, contactReach(node, grid.geo), parts,
+    if (!contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, materialTouches(node) ? grid.geo.dx : 0.f, parts,
                          nParts, p, bodies, s, pass))
       continue;
     float* dst = &out[parts[p].body].impulse[0];
