@@ -80,6 +80,7 @@ struct FloorResult {
   double ratio = 0;  ///< time-averaged shortening / uniaxial closed form
   double sink = 0;   ///< time-averaged descent of the bottom layer [cells]
   double shortening = 0;  ///< time-averaged [m]
+  double bottom = 0;      ///< time-averaged height of the bottom layer [m]
 };
 
 FloorResult restOnFloor(Floor floor, float offset, SolverType solver) {
@@ -177,11 +178,13 @@ FloorResult restOnFloor(Floor floor, float offset, SolverType solver) {
     scene.readPositions(id, x);
     r.shortening += length0 - layers.length(x);
     r.sink += (bottom0 - layers.meanHeight(x, layers.bottom)) / kDx;
+    r.bottom += layers.meanHeight(x, layers.bottom);
   }
   if (coupler) coupler->rethrowError();
   r.shortening /= samples;
   r.ratio = r.shortening / uniaxial;
   r.sink /= samples;
+  r.bottom /= samples;
   return r;
 }
 
@@ -204,6 +207,36 @@ TEST_P(FloorSweep, SlabShortensUniaxiallyWherevertheSurfaceFalls) {
     EXPECT_NEAR(r.ratio, 1.0, 0.15) << "shortening " << r.ratio << " times the uniaxial value";
   }
 }
+
+// Bullet's usual ground, a btBoxShape of half-extents 50 m centred 50 m below, is the
+// plane through its top face to the tissue: the slab settles on it as on a Plane at that
+// height. Measured about the box's centre its local coordinates near the face round to
+// 4e-6 m, which put nodes 1e-6 m below the face outside it; the parts are now anchored
+// near the domain (PartView). The surface is put where a box centred at layer + offset - 50
+// (rounded) has it, so both floors and slabs lie at the same height exactly.
+class LargeGround : public ::testing::TestWithParam<std::tuple<int, SolverType>> {};
+
+TEST_P(LargeGround, BulletBoxGroundSettlesTheSlabAsAPlaneDoes) {
+  const auto [offset, solver] = GetParam();
+  const float layer = kDx * 5.f;  // node layer 5 of restOnFloor's domain (lower y = 0)
+  const float centre = layer + surfaceOffset(offset) - 50.f;
+  const float face = centre + 50.f;  // exact: centre is a multiple of 2^-18
+  // both floors (and the slabs on them) at `face`: the box centred at face - 50 = centre
+  const FloorResult box = restOnFloor(Floor::BulletBox, face - layer, solver);
+  const FloorResult plane = restOnFloor(Floor::Plane, face - layer, solver);
+  std::printf("%s %s: bottom layer at %.8f m on the 50 m box, %.8f m on the plane (%+.3g m)\n",
+              offsetName(offset).c_str(), test::solverName(solver).c_str(), box.bottom, plane.bottom,
+              box.bottom - plane.bottom);
+  EXPECT_NEAR(box.bottom, plane.bottom, 1e-7) << "time-averaged bottom layer height [m]";
+  EXPECT_NEAR(box.shortening, plane.shortening, 1e-7) << "time-averaged shortening [m]";
+}
+
+INSTANTIATE_TEST_SUITE_P(SurfaceNearALayer, LargeGround,
+                         ::testing::Combine(::testing::Values(0, 1, 2), test::allSolvers()),
+                         [](const ::testing::TestParamInfo<std::tuple<int, SolverType>>& info) {
+                           return offsetName(std::get<0>(info.param)) + "_" +
+                                  test::solverName(std::get<1>(info.param));
+                         });
 
 INSTANTIATE_TEST_SUITE_P(
     AllFloors, FloorSweep,

@@ -11,6 +11,7 @@
 
 #include "mpm/scene.h"
 #include "shapes/sdf_primitives.h"
+#include "shapes/shape_builder.h"
 
 namespace mpm {
 namespace {
@@ -58,6 +59,176 @@ TEST(ShapeSdf, PrimitivesMatchClosedForms) {
       expectNormalIsGradient([&](Vec3f q, Vec3f& m) { return sdfCapsule(q, 0.04f, 0.1f, 2, m); }, p, 2e-2f);
       expectNormalIsGradient([&](Vec3f q, Vec3f& m) { return sdfCylinder(q, 0.06f, 0.12f, 0, m); }, p, 2e-2f);
     }
+  }
+}
+
+// Large shapes near the domain (issue 13): Bullet's usual ground is a box of half-extents
+// 50 m centred 50 m below the origin, whose local coordinates near its top face are about
+// 50 m and round to ~4e-6 m in float. The part's distance at grid nodes near y = 0 (dx =
+// 2 cm, and 1e-6 m above and below a node layer) must match the exact distance of the same
+// shape (its float pose and sizes taken exactly, evaluated in double) within 1e-7 m.
+struct Pose64 {
+  double R[3][3], t[3];
+  /// Part frame -> world of part 0 of `d`, from the float quaternions normalised in double.
+  explicit Pose64(const ShapeDesc& d) {
+    double Rb[3][3], Rl[3][3];
+    rotation(d.pose.rotation, Rb);
+    rotation(d.parts[0].localPose.rotation, Rl);
+    const Vec3f& o = d.pose.position;
+    const Vec3f& l = d.parts[0].localPose.position;
+    for (int i = 0; i < 3; ++i) {
+      t[i] = (double)o[i] + Rb[i][0] * l.x + Rb[i][1] * l.y + Rb[i][2] * l.z;
+      for (int j = 0; j < 3; ++j) R[i][j] = Rb[i][0] * Rl[0][j] + Rb[i][1] * Rl[1][j] + Rb[i][2] * Rl[2][j];
+    }
+  }
+  static void rotation(const Quat& q, double R[3][3]) {
+    const double n = std::sqrt((double)q.w * q.w + (double)q.x * q.x + (double)q.y * q.y + (double)q.z * q.z);
+    const double w = q.w / n, x = q.x / n, y = q.y / n, z = q.z / n;
+    R[0][0] = 1 - 2 * (y * y + z * z); R[0][1] = 2 * (x * y - w * z);     R[0][2] = 2 * (x * z + w * y);
+    R[1][0] = 2 * (x * y + w * z);     R[1][1] = 1 - 2 * (x * x + z * z); R[1][2] = 2 * (y * z - w * x);
+    R[2][0] = 2 * (x * z - w * y);     R[2][1] = 2 * (y * z + w * x);     R[2][2] = 1 - 2 * (x * x + y * y);
+  }
+  /// The pose of a body whose centre of mass is its origin (and the part's frame, with the
+  /// identity local pose) after moving at v and w for `time`.
+  Pose64 moved(Vec3f v, Vec3f w, double time) const {
+    Pose64 r = *this;
+    const double wn = std::sqrt((double)w.x * w.x + (double)w.y * w.y + (double)w.z * w.z), a = wn * time;
+    const double k[3] = {w.x / wn, w.y / wn, w.z / wn}, c = std::cos(a), s = std::sin(a);
+    double Q[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) Q[i][j] = (i == j ? c : 0) + (1 - c) * k[i] * k[j];
+    Q[0][1] -= s * k[2]; Q[0][2] += s * k[1]; Q[1][0] += s * k[2]; Q[1][2] -= s * k[0]; Q[2][0] -= s * k[1]; Q[2][1] += s * k[0];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r.R[i][j] = Q[i][0] * R[0][j] + Q[i][1] * R[1][j] + Q[i][2] * R[2][j];
+    for (int i = 0; i < 3; ++i) r.t[i] = t[i] + v[i] * time;
+    return r;
+  }
+  /// World point -> part frame.
+  void local(Vec3f x, double p[3]) const {
+    const double d[3] = {(double)x.x - t[0], (double)x.y - t[1], (double)x.z - t[2]};
+    for (int j = 0; j < 3; ++j) p[j] = R[0][j] * d[0] + R[1][j] * d[1] + R[2][j] * d[2];
+  }
+};
+
+/// Distance of part 0 of `d` placed at `pose` (part frame -> world).
+double exactDistance(const ShapeDesc& d, const Pose64& pose, Vec3f x) {
+  double p[3];
+  pose.local(x, p);
+  const Geometry& g = d.parts[0];
+  if (g.type == GeometryType::Plane) return p[1];
+  double out = 0, inside = -1e300;
+  for (int a = 0; a < 3; ++a) {
+    const double q = std::fabs(p[a]) - (double)g.halfExtents[a];
+    out += q > 0 ? q * q : 0;
+    inside = std::fmax(inside, q);
+  }
+  return out > 0 ? std::sqrt(out) : inside;
+}
+double exactDistance(const ShapeDesc& d, Vec3f x) { return exactDistance(d, Pose64(d), x); }
+
+/// Part 0 of `d` as the kernels see it, placed at the shape's pose, anchored for a domain
+/// centred at `near`.
+PartView placedPart(const ShapeDesc& d, Vec3f near) {
+  const ShapeState state{d.pose, d.linearVelocity, d.angularVelocity};
+  std::vector<PartView> parts;
+  appendParts(d, state, 0, 0.f, near, [](const std::shared_ptr<const SignedDistanceGrid>&) { return (const float*)nullptr; },
+              parts);
+  const BodyView b = makeBody(d, state, 0.f);
+  placePart(parts[0], b, 0.f);
+  return parts[0];
+}
+
+/// Largest |distance - exact| over nodes (dx = 2 cm) in [-0.2, 0.2] m x [-0.1, 0.1] m x
+/// [-0.2, 0.2] m and 1e-6 m above and below each node layer, near `surfaceY(x, z)`.
+double largestDistanceError(const ShapeDesc& d) {
+  const Vec3f near{0.f, 0.2f, 0.f};  // the domain [-0.3, 0, -0.3] - [0.3, 0.4, 0.3]
+  const PartView part = placedPart(d, near);
+  const float dx = 0.02f;
+  double worst = 0;
+  for (int i = -10; i <= 10; ++i)
+    for (int k = -10; k <= 10; ++k)
+      for (int j = -5; j <= 5; ++j)
+        for (const float off : {0.f, 1e-6f, -1e-6f}) {
+          const Vec3f x{dx * (float)i, dx * (float)j + off, dx * (float)k};
+          Vec3f n;
+          const double err = std::fabs((double)part.distance(x, n) - exactDistance(d, x));
+          worst = std::fmax(worst, err);
+        }
+  return worst;
+}
+
+ShapeDesc boxGround(float half, Quat q = {}) {
+  ShapeDesc d;
+  d.parts = {Geometry::box({half, half, half})};
+  d.pose.rotation = q;
+  // the top face through the origin: centre at -R (0, half, 0)
+  double R[3][3];
+  Pose64::rotation(q, R);
+  d.pose.position = {(float)(-R[0][1] * half), (float)(-R[1][1] * half), (float)(-R[2][1] * half)};
+  return d;
+}
+
+// A moving 50 m ground, its centre of mass 50 m below: 200 substeps of 1 ms at v = (3, -2,
+// 1) mm/s and w = 0.01 rad/s about z. Its centre's float position cannot take steps of 2e-6
+// m (float spacing at 50: 3.8e-6 m); the parts follow the body's travel and turn instead.
+TEST(ShapePrecision, MovingLargeBoxKeepsItsDistanceNearTheDomain) {
+  ShapeDesc d = boxGround(50.f);
+  d.linearVelocity = {0.003f, -0.002f, 0.001f};
+  d.angularVelocity = {0.f, 0.f, 0.01f};
+  const ShapeState state{d.pose, d.linearVelocity, d.angularVelocity};
+  std::vector<PartView> parts;
+  appendParts(d, state, 0, 0.f, Vec3f{0.f, 0.2f, 0.f},
+              [](const std::shared_ptr<const SignedDistanceGrid>&) { return (const float*)nullptr; }, parts);
+  BodyView b = makeBody(d, state, 0.f);
+  const int steps = 200;
+  const float dt = 1e-3f;
+  for (int s = 0; s < steps; ++s) moveBody(b, dt);
+  placePart(parts[0], b, 0.f);
+  const Pose64 pose = Pose64(d).moved(d.linearVelocity, d.angularVelocity, (double)steps * dt);
+  double worst = 0;
+  for (int i = -10; i <= 10; ++i)
+    for (int k = -10; k <= 10; ++k)
+      for (int j = -5; j <= 5; ++j)
+        for (const float off : {0.f, 1e-6f, -1e-6f}) {
+          const Vec3f x{0.02f * (float)i, 0.02f * (float)j + off, 0.02f * (float)k};
+          Vec3f n;
+          worst = std::fmax(worst, std::fabs((double)parts[0].distance(x, n) - exactDistance(d, pose, x)));
+        }
+  std::printf("moving 50 m box ground after %d substeps: largest distance error %.3g m\n", steps, worst);
+  EXPECT_LT(worst, 1e-7);
+}
+
+TEST(ShapePrecision, LargeShapesKeepTheirDistanceNearTheDomain) {
+  const float s = std::sin(0.5f * 0.35f), c = std::cos(0.5f * 0.35f);  // 20 degrees
+  const Quat tilt{c, 0.6f * s, 0.f, 0.8f * s};                       // about (0.6, 0, 0.8)
+  ShapeDesc plane;
+  plane.parts = {Geometry{}};
+  plane.parts[0].type = GeometryType::Plane;
+  plane.pose.rotation = tilt;
+  {  // a plane whose origin lies 5 km away along it, its surface 1 cm above the origin
+    double R[3][3];
+    Pose64::rotation(tilt, R);
+    const double along[3] = {3000, 0, -4000};
+    Vec3f o;
+    for (int i = 0; i < 3; ++i) o[i] = (float)(R[i][0] * along[0] + R[i][2] * along[2] + R[i][1] * 0.01);
+    plane.pose.position = o;
+  }
+  ShapeDesc offsetLocal = boxGround(50.f);  // the far centre in the part's local pose
+  offsetLocal.parts[0].localPose.position = offsetLocal.pose.position;
+  offsetLocal.pose.position = {0.013f, 0.f, -0.021f};
+  const struct {
+    const char* name;
+    ShapeDesc d;
+  } cases[] = {{"50 m box ground", boxGround(50.f)},
+               {"rotated 50 m box", boxGround(50.f, tilt)},
+               {"5 km box ground", boxGround(5000.f)},
+               {"5 km rotated box", boxGround(5000.f, tilt)},
+               {"50 m box placed by its local pose", offsetLocal},
+               {"plane with a far origin", plane}};
+  for (const auto& c : cases) {
+    const double err = largestDistanceError(c.d);
+    std::printf("%s: largest distance error %.3g m\n", c.name, err);
+    EXPECT_LT(err, 1e-7) << c.name;
   }
 }
 

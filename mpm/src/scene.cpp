@@ -577,6 +577,17 @@ class SceneImpl {
   /// gets the band that makes up the difference (PartView::band). MTLED: none.
   float thinPartHalfThickness() const { return solverTraits(settings.solver).meshless ? 0.f : 0.75f * settings.dx; }
 
+  /// Where the parts are anchored (PartView): the domain's centre.
+  Vec3f domainCentre() const { return 0.5f * (settings.domain.lower + settings.domain.upper); }
+  static bool moved(const BodyView& b) {
+    bool any = false;
+    for (int i = 0; i < 3; ++i) {
+      any = any || b.travel[i] != 0.0;
+      for (int j = 0; j < 3; ++j) any = any || b.turn[i][j] != 0.0;
+    }
+    return any;
+  }
+
   /// Hands the live shapes to the backend (bodies in shape-slot order, then parts).
   void uploadShapes() {
     std::vector<BodyView> bodies;
@@ -588,7 +599,8 @@ class SceneImpl {
       const int b = (int)bodies.size();
       bodyOfShape[i] = b;
       bodies.push_back(makeBody(shapes[i].desc, shapes[i].state, bondedBand()));
-      appendParts(shapes[i].desc, b, thinPartHalfThickness(), [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
+      appendParts(shapes[i].desc, shapes[i].state, b, thinPartHalfThickness(), domainCentre(),
+                  [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
         meshes.push_back(g.get());
         return backend->meshValues(g);
       }, parts);
@@ -606,8 +618,12 @@ class SceneImpl {
       const int b = i < bodyOfShape.size() ? bodyOfShape[i] : -1;
       if (!shapes[i].alive || b < 0) continue;
       ShapeState& st = shapes[i].state;
-      st.pose.position = bodies[b].shapeOrigin;
-      st.pose.rotation = quaternionFromMatrix(bodies[b].rotation);
+      // a body the substeps did not move keeps its pose as given: read back from the
+      // float matrix and origin it would drift by their rounding every advance
+      if (moved(bodies[b])) {
+        st.pose.position = bodies[b].shapeOrigin;
+        st.pose.rotation = quaternionFromMatrix(bodies[b].rotation);
+      }
       st.linearVelocity = bodies[b].linearVelocity;
       st.angularVelocity = bodies[b].angularVelocity;
       const ContactSums& c = impulses[b];

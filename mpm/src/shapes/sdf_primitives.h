@@ -1,6 +1,8 @@
 #pragma once
 // Signed distances (negative inside) and outward unit normals of the primitive geometries,
-// in their local frames, as host/device functions. Plane: solid below y = 0.
+// in their local frames, as host/device functions. Plane: solid below y = 0. Box, capsule
+// and cylinder also take their extent as two ends (faces) in a frame placed anywhere, so a
+// large one is evaluated with small numbers near the point asked about.
 #include "mpm/math.h"
 
 namespace mpm {
@@ -16,31 +18,45 @@ MPM_HD float sdfSphere(Vec3f p, float r, Vec3f& n) {
   return d - r;
 }
 
-MPM_HD float sdfBox(Vec3f p, Vec3f h, Vec3f& n) {
-  Vec3f q, out;
+/// Distance of coordinate t outside the slab [lo, hi] (negative inside: minus the distance
+/// to the nearer end) and the side of that end (+1: hi). A tie goes by the midpoint, so a
+/// slab [-h, h] gives exactly |t| - h and the side of t's sign.
+MPM_HD float slabDistance(float t, float lo, float hi, float& side) {
+  const float below = lo - t, above = t - hi;
+  side = above > below || (above == below && t >= 0.5f * (lo + hi)) ? 1.f : -1.f;
+  return side > 0.f ? above : below;
+}
+
+/// Box between its faces `lo` and `hi` (per axis, lo < hi), in a frame anywhere: a large
+/// box keeps small numbers when its frame's origin is near the point asked about.
+MPM_HD float sdfBoxFaces(Vec3f p, Vec3f lo, Vec3f hi, Vec3f& n) {
+  Vec3f q, out, side;
   float inside = -3.4e38f;
   int face = 0;
   for (int a = 0; a < 3; ++a) {
-    q[a] = fabsf(p[a]) - h[a];
+    q[a] = slabDistance(p[a], lo[a], hi[a], side[a]);
     out[a] = q[a] > 0.f ? q[a] : 0.f;
     if (q[a] > inside) { inside = q[a]; face = a; }
   }
   const float outside = norm(out);
   if (outside > 0.f) {
     // nearest point is on a face, edge or corner: normal along the clamped offset
-    for (int a = 0; a < 3; ++a) n[a] = (p[a] < 0.f ? -out[a] : out[a]) / outside;
+    for (int a = 0; a < 3; ++a) n[a] = side[a] * out[a] / outside;
     return outside;
   }
   n = Vec3f{0.f, 0.f, 0.f};
-  n[face] = p[face] < 0.f ? -1.f : 1.f;  // nearest face from the inside
+  n[face] = side[face];  // nearest face from the inside
   return inside;
 }
 
-/// Capsule: the points within r of the segment [-hh, hh] on `axis`.
-MPM_HD float sdfCapsule(Vec3f p, float r, float hh, int axis, Vec3f& n) {
+/// Box of half-extents h about the origin.
+MPM_HD float sdfBox(Vec3f p, Vec3f h, Vec3f& n) { return sdfBoxFaces(p, -h, h, n); }
+
+/// Capsule: the points within r of the segment [lo, hi] on `axis`.
+MPM_HD float sdfCapsule(Vec3f p, float r, float lo, float hi, int axis, Vec3f& n) {
   Vec3f c{0.f, 0.f, 0.f};
   const float t = p[axis];
-  c[axis] = t < -hh ? -hh : (t > hh ? hh : t);
+  c[axis] = t < lo ? lo : (t > hi ? hi : t);
   const Vec3f d = p - c;
   const float len = norm(d);
   if (len > 1e-12f) {
@@ -52,8 +68,11 @@ MPM_HD float sdfCapsule(Vec3f p, float r, float hh, int axis, Vec3f& n) {
   return len - r;
 }
 
-/// Cylinder of radius r and half height hh along `axis`.
-MPM_HD float sdfCylinder(Vec3f p, float r, float hh, int axis, Vec3f& n) {
+/// Capsule about the segment [-hh, hh] on `axis`.
+MPM_HD float sdfCapsule(Vec3f p, float r, float hh, int axis, Vec3f& n) { return sdfCapsule(p, r, -hh, hh, axis, n); }
+
+/// Cylinder of radius r along `axis` between its caps at lo and hi on the axis.
+MPM_HD float sdfCylinder(Vec3f p, float r, float lo, float hi, int axis, Vec3f& n) {
   Vec3f radial = p;
   radial[axis] = 0.f;
   const float rho = norm(radial);
@@ -63,8 +82,7 @@ MPM_HD float sdfCylinder(Vec3f p, float r, float hh, int axis, Vec3f& n) {
   else
     er[(axis + 1) % 3] = 1.f;  // on the axis: any radial direction
   Vec3f ea{0.f, 0.f, 0.f};
-  ea[axis] = p[axis] < 0.f ? -1.f : 1.f;
-  const float dr = rho - r, da = fabsf(p[axis]) - hh;
+  const float dr = rho - r, da = slabDistance(p[axis], lo, hi, ea[axis]);
   if (dr > 0.f && da > 0.f) {  // beyond the rim: distance to the circle edge
     const float len = sqrtf(dr * dr + da * da);
     n = (dr / len) * er + (da / len) * ea;
@@ -77,6 +95,9 @@ MPM_HD float sdfCylinder(Vec3f p, float r, float hh, int axis, Vec3f& n) {
   n = ea;
   return da;
 }
+
+/// Cylinder of radius r and half height hh along `axis`, centred on the origin.
+MPM_HD float sdfCylinder(Vec3f p, float r, float hh, int axis, Vec3f& n) { return sdfCylinder(p, r, -hh, hh, axis, n); }
 
 /// Trilinear sample of a signed distance grid (values k-fastest), with its gradient.
 /// Points outside the grid are clamped to it and the distance to the grid added, so the

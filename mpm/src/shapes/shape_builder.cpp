@@ -118,39 +118,113 @@ BodyView makeBody(const ShapeDesc& d, const ShapeState& s, float bondedBand) {
   return b;
 }
 
-PartView makePart(const Geometry& g, int bodyIndex, float minHalfThickness) {
+namespace {
+/// Rigid placement in double on the host: the anchors are chosen and placed without the
+/// float rounding the kernels are spared.
+struct Frame64 {
+  double R[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  double t[3] = {0, 0, 0};
+  Frame64() = default;
+  Frame64(const Pose& p) {
+    const Quat& q0 = p.rotation;
+    const double n = std::sqrt((double)q0.w * q0.w + (double)q0.x * q0.x + (double)q0.y * q0.y + (double)q0.z * q0.z);
+    const double w = q0.w / n, x = q0.x / n, y = q0.y / n, z = q0.z / n;
+    R[0][0] = 1 - 2 * (y * y + z * z); R[0][1] = 2 * (x * y - w * z);     R[0][2] = 2 * (x * z + w * y);
+    R[1][0] = 2 * (x * y + w * z);     R[1][1] = 1 - 2 * (x * x + z * z); R[1][2] = 2 * (y * z - w * x);
+    R[2][0] = 2 * (x * z - w * y);     R[2][1] = 2 * (y * z + w * x);     R[2][2] = 1 - 2 * (x * x + y * y);
+    for (int i = 0; i < 3; ++i) t[i] = p.position[i];
+  }
+  /// This frame then `child` (child -> this frame's parent).
+  Frame64 operator*(const Frame64& c) const {
+    Frame64 r;
+    for (int i = 0; i < 3; ++i) {
+      r.t[i] = t[i];
+      for (int j = 0; j < 3; ++j) {
+        r.R[i][j] = 0;
+        for (int k = 0; k < 3; ++k) r.R[i][j] += R[i][k] * c.R[k][j];
+        r.t[i] += R[i][j] * c.t[j];
+      }
+    }
+    return r;
+  }
+  void apply(const double p[3], double out[3]) const {
+    for (int i = 0; i < 3; ++i) out[i] = t[i] + R[i][0] * p[0] + R[i][1] * p[1] + R[i][2] * p[2];
+  }
+  void applyInverse(const double x[3], double out[3]) const {
+    const double d[3] = {x[0] - t[0], x[1] - t[1], x[2] - t[2]};
+    for (int j = 0; j < 3; ++j) out[j] = R[0][j] * d[0] + R[1][j] * d[1] + R[2][j] * d[2];
+  }
+};
+
+double clampTo(double v, double lo, double hi) { return v < lo ? lo : (v > hi ? hi : v); }
+Vec3f toFloat(const double v[3]) { return {(float)v[0], (float)v[1], (float)v[2]}; }
+}  // namespace
+
+PartView makePart(const Geometry& g, const ShapeDesc& desc, const ShapeState& state, int bodyIndex,
+                  float minHalfThickness, Vec3f near) {
   PartView p;
   p.body = bodyIndex;
-  p.halfExtents = g.halfExtents;
   p.radius = g.radius;
-  p.halfHeight = g.halfHeight;
   p.axis = g.axis;
-  p.localRotation = rotationMatrix(g.localPose.rotation);
-  p.localPosition = g.localPose.position;
-  const float big = 1e18f;  // a plane's bounds: unbounded, yet finite after rotation
+  // the part's frame in the world, and the domain centre in it
+  const Frame64 body(state.pose), part = body * Frame64(g.localPose);
+  const double nearWorld[3] = {near.x, near.y, near.z};
+  double c[3];
+  part.applyInverse(nearWorld, c);
+  // the anchor (part frame): the part's point nearest the domain centre where that keeps
+  // the numbers small; a sphere's (and a mesh grid's) is its centre
+  double anchor[3] = {0, 0, 0};
+  const double h[3] = {g.halfExtents.x, g.halfExtents.y, g.halfExtents.z};
+  double hh = g.halfHeight;
+  switch (g.type) {
+    case GeometryType::Plane: anchor[0] = c[0]; anchor[2] = c[2]; break;
+    case GeometryType::Box:
+      for (int a = 0; a < 3; ++a) anchor[a] = clampTo(c[a], -h[a], h[a]);
+      break;
+    case GeometryType::Capsule:
+    case GeometryType::Cylinder: anchor[g.axis] = clampTo(c[g.axis], -hh, hh); break;
+    default: break;
+  }
+  double anchorWorld[3];
+  part.apply(anchor, anchorWorld);
+  const double comLocal[3] = {desc.centerOfMass.x, desc.centerOfMass.y, desc.centerOfMass.z};
+  double com[3], lever[3];
+  body.apply(comLocal, com);
+  for (int i = 0; i < 3; ++i) lever[i] = anchorWorld[i] - com[i];
+  p.uploadPosition = toFloat(anchorWorld);
+  p.lever = toFloat(lever);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) p.uploadRotation.m[i][j] = (float)part.R[i][j];
+  p.rotation = p.uploadRotation;
+  p.position = p.uploadPosition;
+  // the geometry relative to the anchor, rounded once from double
+  double lower[3] = {0, 0, 0}, upper[3] = {0, 0, 0};
+  const double big = 1e18;  // a plane's bounds: unbounded, yet finite after rotation
   switch (g.type) {
     case GeometryType::Plane:
       p.type = kPartPlane;
-      p.localLower = {-big, -big, -big};
-      p.localUpper = {big, 0.f, big};
+      for (int a = 0; a < 3; ++a) lower[a] = -big, upper[a] = big;
+      upper[1] = 0;
       break;
     case GeometryType::Box:
       p.type = kPartBox;
-      p.localLower = -g.halfExtents;
-      p.localUpper = g.halfExtents;
+      for (int a = 0; a < 3; ++a) lower[a] = -h[a] - anchor[a], upper[a] = h[a] - anchor[a];
+      p.faceLower = toFloat(lower);
+      p.faceUpper = toFloat(upper);
       break;
     case GeometryType::Sphere:
       p.type = kPartSphere;
-      p.localLower = {-g.radius, -g.radius, -g.radius};
-      p.localUpper = {g.radius, g.radius, g.radius};
+      for (int a = 0; a < 3; ++a) lower[a] = -g.radius, upper[a] = g.radius;
       break;
     case GeometryType::Capsule:
     case GeometryType::Cylinder: {
       p.type = g.type == GeometryType::Capsule ? kPartCapsule : kPartCylinder;
-      Vec3f h{g.radius, g.radius, g.radius};
-      h[g.axis] = g.halfHeight + (g.type == GeometryType::Capsule ? g.radius : 0.f);
-      p.localLower = -h;
-      p.localUpper = h;
+      p.faceLower[g.axis] = (float)(-hh - anchor[g.axis]);
+      p.faceUpper[g.axis] = (float)(hh - anchor[g.axis]);
+      const double ends = g.type == GeometryType::Capsule ? g.radius : 0.0;
+      for (int a = 0; a < 3; ++a) lower[a] = -(double)g.radius, upper[a] = g.radius;
+      lower[g.axis] = -hh - ends - anchor[g.axis];
+      upper[g.axis] = hh + ends - anchor[g.axis];
       break;
     }
     case GeometryType::Mesh:
@@ -161,10 +235,11 @@ PartView makePart(const Geometry& g, int bodyIndex, float minHalfThickness) {
       p.sdfLower = g.sdf->lower;
       p.sdfCell = g.sdf->cellSize;
       // the solid lies within the sampled grid; its bounds are the grid's
-      p.localLower = g.sdf->lower;
-      p.localUpper = g.sdf->upper();
+      for (int a = 0; a < 3; ++a) lower[a] = g.sdf->lower[a], upper[a] = g.sdf->upper()[a];
       break;
   }
+  p.localLower = toFloat(lower);
+  p.localUpper = toFloat(upper);
   // Half the thinnest extent of the solid (a sampled mesh's is not known: 0)
   float half = 0.f;
   if (g.type == GeometryType::Box) half = std::min(g.halfExtents.x, std::min(g.halfExtents.y, g.halfExtents.z));

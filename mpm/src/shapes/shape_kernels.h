@@ -25,26 +25,46 @@ struct BodyView {
   Vec3f gravity;        ///< acceleration between substeps [m/s^2] (dynamic)
   Vec3f comLocal;       ///< centre of mass in the shape frame [m]
   Vec3f v0, w0;         ///< velocities at the start of the substep (implicit update)
+  /// Motion since the shapes were uploaded: the centre of mass's displacement, and the
+  /// rotation as R(t) R(upload)^T - I. Kept apart from the pose (small numbers, exactly 0
+  /// for a body at rest), they place the parts (placePart) without the float rounding of a
+  /// pose far from the domain (a static ground's centre 50 m below: 4e-6 m). Summed in
+  /// double, once per body per substep, so their rounding does not grow with the number of
+  /// substeps whatever the lever (a float turn loses ulp(turn) x 50 m a substep).
+  double travel[3] = {0, 0, 0};
+  double turn[3][3] = {{0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
 
   MPM_HD Vec3f velocityAt(Vec3f x) const { return linearVelocity + cross(angularVelocity, x - com); }
 };
 
 /// One primitive of a body, with its world placement and bounds for the broad phase.
+///
+/// Anchored: a part's frame has its origin at an anchor, a point of the part near the
+/// simulation domain chosen on the host in double (a box's point nearest the domain centre,
+/// a plane's foot of the perpendicular from it, a capsule's or cylinder's axis point nearest
+/// it), and its geometry is given relative to that anchor. The kernels then subtract small
+/// numbers near the domain: Bullet's ground, a box of half-extents 50 m centred 50 m below,
+/// measured about its centre had local coordinates of 50 m near its top face (float
+/// spacing 4e-6 m). Its placement follows the body from the pose it had at upload by the
+/// body's travel and turn since (BodyView), so a body at rest keeps it exactly.
 struct PartView {
   int type = kPartBox;
   int body = 0;
-  Vec3f halfExtents;
-  float radius = 0.f, halfHeight = 0.f;
+  /// Box: its faces along each axis, relative to the anchor. Capsule, cylinder: the ends
+  /// of the axis segment at [axis] (the other components unused).
+  Vec3f faceLower, faceUpper;
+  float radius = 0.f;
   int axis = 1;
   const float* sdfValues = nullptr;  ///< (Mesh) grid values in Exec memory
   int sdfDims[3] = {0, 0, 0};
   Vec3f sdfLower;
   float sdfCell = 0.f;
   Mat3f rotation;        ///< part frame -> world, this substep
-  Vec3f position;        ///< part frame origin, world
+  Vec3f position;        ///< part frame origin (the anchor), world, this substep
   Vec3f boundsLower, boundsUpper;  ///< world AABB grown by the contact band and a cell
-  Mat3f localRotation;   ///< part frame -> shape frame
-  Vec3f localPosition;   ///< part origin in the shape frame
+  Mat3f uploadRotation;  ///< part frame -> world when the shapes were uploaded
+  Vec3f uploadPosition;  ///< anchor, world, when the shapes were uploaded
+  Vec3f lever;           ///< anchor - the body's centre of mass, world, at upload
   Vec3f localLower, localUpper;  ///< the part's bounds in its own frame (planes: large)
   /// Contact band of a part whose half-thickness is under 0.75 dx on the grid solvers,
   /// making it that thick to the grid [m]. A thinner rod (a needle, a thread link, a
@@ -62,8 +82,8 @@ struct PartView {
     switch (type) {
       case kPartPlane: d = sdfPlane(p, nl); break;
       case kPartSphere: d = sdfSphere(p, radius, nl); break;
-      case kPartCapsule: d = sdfCapsule(p, radius, halfHeight, axis, nl); break;
-      case kPartCylinder: d = sdfCylinder(p, radius, halfHeight, axis, nl); break;
+      case kPartCapsule: d = sdfCapsule(p, radius, faceLower[axis], faceUpper[axis], axis, nl); break;
+      case kPartCylinder: d = sdfCylinder(p, radius, faceLower[axis], faceUpper[axis], axis, nl); break;
       case kPartMesh: {
         d = sdfGridSample(sdfValues, sdfDims, sdfLower, sdfCell, p, nl);
         const float len = norm(nl);
@@ -71,7 +91,7 @@ struct PartView {
         break;
       }
       case kPartBox:
-      default: d = sdfBox(p, halfExtents, nl); break;
+      default: d = sdfBoxFaces(p, faceLower, faceUpper, nl); break;
     }
     n = rotation * nl;
     return d;
@@ -250,17 +270,27 @@ MPM_HD void worldInertia(const BodyView& b, float out[6]) {
   out[3] = I.m[0][1]; out[4] = I.m[0][2]; out[5] = I.m[1][2];
 }
 
-/// R <- exp([w dt]x) R (Rodrigues), integrating a body's orientation inside a step.
-MPM_HD Mat3f rotateBy(const Mat3f& R, Vec3f w, float dt) {
+/// exp([w dt]x) - I (Rodrigues), the change of a rotation over dt; false (and E untouched)
+/// when the angle is negligible.
+MPM_HD bool rotationChange(Vec3f w, float dt, Mat3f& E) {
   const float angle = norm(w) * dt;
-  if (angle < 1e-12f) return R;
+  if (angle < 1e-12f) return false;
   const Vec3f k = (1.f / norm(w)) * w;
-  const float c = cosf(angle), s = sinf(angle);
-  // Rodrigues' rotation matrix
+  // 1 - cos as 2 sin^2(angle / 2): cosf of a small angle rounds to 1 (below 3e-4 rad), which
+  // dropped the second-order term of every substep's rotation (a face 50 m from the centre
+  // of mass drifted 5e-7 m in 200 substeps at 0.01 rad/s)
+  const float s = sinf(angle), h = sinf(0.5f * angle), oneMinusCos = 2.f * h * h;
   Mat3f K;
   K.m[0][1] = -k.z; K.m[0][2] = k.y; K.m[1][0] = k.z; K.m[1][2] = -k.x; K.m[2][0] = -k.y; K.m[2][1] = k.x;
-  const Mat3f Rk = Mat3f::identity() + s * K + (1.f - c) * (K * K);
-  return Rk * R;
+  E = s * K + oneMinusCos * (K * K);
+  return true;
+}
+
+/// R <- exp([w dt]x) R (Rodrigues), integrating a body's orientation inside a step.
+MPM_HD Mat3f rotateBy(const Mat3f& R, Vec3f w, float dt) {
+  Mat3f E;
+  if (!rotationChange(w, dt, E)) return R;
+  return (Mat3f::identity() + E) * R;
 }
 
 }  // namespace mpm
@@ -302,14 +332,39 @@ MPM_HD void settleBodyVelocity(BodyView& b, const ContactSums& s) {
 /// At the end of a substep: the body's pose advanced by dt at its velocity.
 MPM_HD void moveBody(BodyView& b, float dt) {
   b.com += dt * b.linearVelocity;
-  b.rotation = rotateBy(b.rotation, b.angularVelocity, dt);
+  for (int i = 0; i < 3; ++i) b.travel[i] += (double)dt * (double)b.linearVelocity[i];
+  Mat3f E;
+  if (rotationChange(b.angularVelocity, dt, E)) {
+    b.rotation = (Mat3f::identity() + E) * b.rotation;
+    double next[3][3];  // (I + E)(I + turn) - I
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double v = b.turn[i][j] + (double)E.m[i][j];
+        for (int k = 0; k < 3; ++k) v += (double)E.m[i][k] * b.turn[k][j];
+        next[i][j] = v;
+      }
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) b.turn[i][j] = next[i][j];
+  }
   b.shapeOrigin = b.com - b.rotation * b.comLocal;
 }
 
-/// World placement and bounds of a part from its body's pose.
+/// World placement and bounds of a part: its placement at upload moved with its body since
+/// (a point fixed in the body goes to x0 + travel + turn (x0 - com0)). Small numbers near
+/// the domain, exact for a body at rest.
 MPM_HD void placePart(PartView& p, const BodyView& b, float margin) {
-  p.rotation = b.rotation * p.localRotation;
-  p.position = b.shapeOrigin + b.rotation * p.localPosition;
+  Mat3f turn;
+  Vec3f move;
+  for (int i = 0; i < 3; ++i) {
+    double m = b.travel[i];
+    for (int k = 0; k < 3; ++k) {
+      m += b.turn[i][k] * (double)p.lever[k];
+      turn.m[i][k] = (float)b.turn[i][k];
+    }
+    move[i] = (float)m;
+  }
+  p.rotation = p.uploadRotation + turn * p.uploadRotation;
+  p.position = p.uploadPosition + move;
   Vec3f lo{3.4e38f, 3.4e38f, 3.4e38f}, hi{-3.4e38f, -3.4e38f, -3.4e38f};
   for (int c = 0; c < 8; ++c) {
     const Vec3f corner{(c & 1) ? p.localUpper.x : p.localLower.x, (c & 2) ? p.localUpper.y : p.localLower.y,
