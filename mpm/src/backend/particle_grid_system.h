@@ -217,21 +217,16 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     timings.contact += seconds(t0);
   }
   /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
-  /// bodies: gravity for the substep (if `bodyGravity`), the predicted body velocity, the
-  /// projection of the nodes, then the bodies' velocities from what they received. With
+  /// bodies (ShapeSet::exchange), with gravity for the substep if `bodyGravity`. With
   /// every part out of reach the passes get no parts: they only zero the bodies' sums, and
   /// dynamic bodies feel gravity alone.
   void exchangeContact(float dt, bool bodyGravity) {
     if (shapes_.partCount() == 0) return;
     const int nParts = partCount(), nBodies = shapes_.bodyCount();
     const auto t0 = Clock::now();
-    if (shapes_.anyDynamic()) {
-      if (bodyGravity) shapes_.accelerate(dt);
-      exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), 0);
-      shapes_.predict();
-    }
-    exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), 1);
-    shapes_.settle();
+    shapes_.exchange(bodyGravity ? dt : 0.f, [&](int pass) {
+      exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), pass);
+    });
     timings.contact += seconds(t0);
   }
   /// Advances the bodies' poses over the substep.

@@ -22,10 +22,10 @@ struct PlaceParts {
   MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin); }
 };
 
-struct AccelerateBodies {
+struct StartBodyExchange {
   BodyView* bodies;
   float dt;
-  MPM_HD void operator()(size_t i) const { accelerateBody(bodies[i], dt); }
+  MPM_HD void operator()(size_t i) const { startBodyExchange(bodies[i], dt); }
 };
 
 struct PredictBodies {
@@ -92,12 +92,20 @@ class ShapeSet {
     if (parts_.size() == 0) return;
     exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), margin});
   }
-  /// Gravity of the dynamic bodies over a substep (before the contact that takes it back).
-  void accelerate(float dt) { exec_.forEach(bodies_.size(), kernels::AccelerateBodies{bodies_.data(), dt}); }
-  /// Dynamic bodies' velocities predicted from a measuring pass's stepSums().
-  void predict() { exec_.forEach(bodies_.size(), kernels::PredictBodies{bodies_.data(), stepSums_.data()}); }
-  /// Bodies' velocities from the applying pass's stepSums(), which join the record.
-  void settle() {
+  /// The momentum exchange of a substep with the material (DESIGN 5): the dynamic bodies'
+  /// gravity (`gravityDt`, 0 for none), their velocities predicted from measuring passes,
+  /// then the applying pass and the bodies' velocities from what they received.
+  /// `contactPass(pass)` runs one contact pass over the material's nodes into stepSums().
+  template <class ContactPass>
+  void exchange(float gravityDt, ContactPass&& contactPass) {
+    if (anyDynamic_) {
+      exec_.forEach(bodies_.size(), kernels::StartBodyExchange{bodies_.data(), gravityDt});
+      for (int k = 0; k < kBodyPredictionSteps; ++k) {
+        contactPass(0);
+        exec_.forEach(bodies_.size(), kernels::PredictBodies{bodies_.data(), stepSums_.data()});
+      }
+    }
+    contactPass(1);
     exec_.forEach(bodies_.size(), kernels::SettleBodies{bodies_.data(), stepSums_.data(), record_.data()});
   }
   /// Advances the bodies' poses over a substep.

@@ -308,16 +308,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     timings.gridUpdate += seconds(t0);
 
     t0 = Clock::now();
-    if (shapes_.partCount() > 0) {
-      // the same two-pass exchange as the grid contact (ParticleGridSystem::exchangeContact)
-      if (shapes_.anyDynamic()) {
-        shapes_.accelerate(s.dt);
-        contactPass(0);
-        shapes_.predict();
-      }
-      contactPass(1);
-      shapes_.settle();
-    }
+    if (shapes_.partCount() > 0) shapes_.exchange(s.dt, [&](int pass) { contactPass(pass); });
     shapes_.move(s.dt);
     timings.contact += seconds(t0);
 

@@ -291,10 +291,10 @@ struct CpuExec {
           ContactSums& bodySums = sums[parts[p].body];
           for (int n = 0; n < kBlockNodes; ++n) {
             GridNode& node = grid.nodes[slot * kBlockNodes + n];
-            if (!holdsMaterial(node)) continue;
             const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
                                                          (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
                                                          (float)(o[2] + (n & kBlockMask))};
+            if (!takesContact(node, x, geo_)) continue;
             contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, materialTouches(node) ? geo_.dx : 0.f, parts,
                             nParts, p, bodies, bodySums, pass);
           }

@@ -56,13 +56,13 @@ static __global__ void contactKernel(GridView grid, const PartView* parts, int n
   const size_t n = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
   if (n >= (size_t)grid.activeCount * kBlockNodes) return;
   GridNode& node = grid.nodes[n];
-  if (!holdsMaterial(node)) return;
   int bx, by, bz;
   grid.geo.blockCoords(grid.activeBlocks[n / kBlockNodes], bx, by, bz);
   const int local = (int)(n % kBlockNodes);
   const Vec3f x = grid.geo.lower + grid.geo.dx * Vec3f{(float)((bx << kBlockBits) + (local >> (2 * kBlockBits))),
                                                        (float)((by << kBlockBits) + ((local >> kBlockBits) & kBlockMask)),
                                                        (float)((bz << kBlockBits) + (local & kBlockMask))};
+  if (!takesContact(node, x, grid.geo)) return;
   for (int p = 0; p < nParts; ++p) {
     if (!parts[p].mayTouch(x, x)) continue;
     ContactSums s{};
