@@ -7,13 +7,22 @@
 
 namespace mpm {
 
+namespace {
+/// The rotation of the (normalised) quaternion q0 in precision T: float for the kernels'
+/// matrices, double for the host's placement of anchored parts (Frame64).
+template <class T>
+void quaternionRotation(const Quat& q0, T R[3][3]) {
+  const T n = std::sqrt((T)q0.w * q0.w + (T)q0.x * q0.x + (T)q0.y * q0.y + (T)q0.z * q0.z);
+  const T w = q0.w / n, x = q0.x / n, y = q0.y / n, z = q0.z / n;
+  R[0][0] = 1 - 2 * (y * y + z * z); R[0][1] = 2 * (x * y - w * z);     R[0][2] = 2 * (x * z + w * y);
+  R[1][0] = 2 * (x * y + w * z);     R[1][1] = 1 - 2 * (x * x + z * z); R[1][2] = 2 * (y * z - w * x);
+  R[2][0] = 2 * (x * z - w * y);     R[2][1] = 2 * (y * z + w * x);     R[2][2] = 1 - 2 * (x * x + y * y);
+}
+}  // namespace
+
 Mat3f rotationMatrix(const Quat& q0) {
-  const float n = std::sqrt(q0.w * q0.w + q0.x * q0.x + q0.y * q0.y + q0.z * q0.z);
-  const float w = q0.w / n, x = q0.x / n, y = q0.y / n, z = q0.z / n;
   Mat3f R;
-  R.m[0][0] = 1 - 2 * (y * y + z * z); R.m[0][1] = 2 * (x * y - w * z);     R.m[0][2] = 2 * (x * z + w * y);
-  R.m[1][0] = 2 * (x * y + w * z);     R.m[1][1] = 1 - 2 * (x * x + z * z); R.m[1][2] = 2 * (y * z - w * x);
-  R.m[2][0] = 2 * (x * z - w * y);     R.m[2][1] = 2 * (y * z + w * x);     R.m[2][2] = 1 - 2 * (x * x + y * y);
+  quaternionRotation(q0, R.m);
   return R;
 }
 
@@ -126,12 +135,7 @@ struct Frame64 {
   double t[3] = {0, 0, 0};
   Frame64() = default;
   Frame64(const Pose& p) {
-    const Quat& q0 = p.rotation;
-    const double n = std::sqrt((double)q0.w * q0.w + (double)q0.x * q0.x + (double)q0.y * q0.y + (double)q0.z * q0.z);
-    const double w = q0.w / n, x = q0.x / n, y = q0.y / n, z = q0.z / n;
-    R[0][0] = 1 - 2 * (y * y + z * z); R[0][1] = 2 * (x * y - w * z);     R[0][2] = 2 * (x * z + w * y);
-    R[1][0] = 2 * (x * y + w * z);     R[1][1] = 1 - 2 * (x * x + z * z); R[1][2] = 2 * (y * z - w * x);
-    R[2][0] = 2 * (x * z - w * y);     R[2][1] = 2 * (y * z + w * x);     R[2][2] = 1 - 2 * (x * x + y * y);
+    quaternionRotation(p.rotation, R);
     for (int i = 0; i < 3; ++i) t[i] = p.position[i];
   }
   /// This frame then `child` (child -> this frame's parent).
