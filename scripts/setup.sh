@@ -10,6 +10,7 @@ packages=(
   libassimp-dev                      # mesh import (OBJ, STL, PLY, glTF)
   libgtest-dev googletest            # tests
   libpng-dev                         # PNG snapshots
+  zlib1g-dev                         # CRC-32 of checkpoints
   libcli11-dev                       # command-line parsing in demos and benchmarks
   nlohmann-json3-dev                 # scene and result files
 )

@@ -38,4 +38,24 @@ class SimulationDiverged : public Error {
   using Error::Error;
 };
 
+/// A checkpoint could not be written or was refused on loading; `reason()` says which
+/// check failed. The scene is unchanged either way.
+class CheckpointError : public Error {
+ public:
+  enum class Reason {
+    Io,          ///< the file could not be opened, written, flushed or renamed
+    NotACheckpoint,  ///< wrong magic bytes
+    Version,     ///< written by another format version
+    Truncated,   ///< shorter than its header or a section says
+    Checksum,    ///< the payload's CRC-32 does not match: corrupted
+    OtherScene,  ///< a checkpoint of a scene with different model settings
+    Unsupported  ///< valid, but this scene cannot take it (named in the message)
+  };
+  CheckpointError(Reason reason, const std::string& what) : Error("checkpoint: " + what), reason_(reason) {}
+  Reason reason() const { return reason_; }
+
+ private:
+  Reason reason_;
+};
+
 }  // namespace mpm

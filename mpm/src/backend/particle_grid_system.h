@@ -117,11 +117,13 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
       MPM_PARTICLE_FIELDS(MPM_KEEP)
 #undef MPM_KEEP
     }
-#define MPM_CLEAR(type, name) name##_.reset();
-    MPM_PARTICLE_FIELDS(MPM_CLEAR)
-#undef MPM_CLEAR
-    count_ = 0;
+    clear();
     append(kept);
+  }
+
+  void importState(const BackendState& in) override {
+    clear();
+    append(in.particles);
   }
 
   void setMaterials(const std::vector<MaterialParams>& m) override {
@@ -253,6 +255,12 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   }
 
   size_t particleCount() const override { return count_; }
+  void clear() {
+#define MPM_CLEAR(type, name) name##_.reset();
+    MPM_PARTICLE_FIELDS(MPM_CLEAR)
+#undef MPM_CLEAR
+    count_ = 0;
+  }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
     size_t b = scratch_.bytes() + marks_.bytes() + materials_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();

@@ -54,6 +54,16 @@ struct IntegrationCells {
   }
 };
 
+/// What a backend holds of a scene beyond the Scene's own records, for checkpoints: every
+/// particle field, and for a meshless solver the reference positions of its nodes and its
+/// integration cells with their object slots (its model is rebuilt from these).
+struct BackendState {
+  HostParticles particles;
+  std::vector<Vec3f> reference;
+  IntegrationCells cells;
+  std::vector<uint32_t> cellSlot;
+};
+
 class SimBackend {
  public:
   virtual ~SimBackend() = default;
@@ -99,6 +109,10 @@ class SimBackend {
   virtual std::vector<ContactSums> takeImpulses() = 0;
   /// Copies the whole particle state to the host.
   virtual void download(HostParticles& out) const = 0;
+  /// The state a checkpoint keeps (BackendState), and its restoration, replacing every
+  /// particle; the Scene sets the materials and shapes around it.
+  virtual void exportState(BackendState& out) const { download(out.particles); }
+  virtual void importState(const BackendState& in) = 0;
   /// Elastic energy held at the solver's own integration points [J], for the node
   /// positions in `state` (as download() gives them); NaN for solvers whose particles hold
   /// it as sum V0 W(F) (the grid solvers) or that store no elastic energy (PB-MPM).

@@ -257,6 +257,21 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     dirty_ = true;
   }
 
+  void exportState(BackendState& out) const override {
+    download(out.particles);
+    out.reference = reference_;
+    out.cells = cells_;
+    out.cellSlot = pointSlot_;
+  }
+  void importState(const BackendState& in) override {
+    nodes_ = in.particles;
+    reference_ = in.reference;
+    cells_ = in.cells;
+    pointSlot_ = in.cellSlot;
+    onDevice_ = false;
+    dirty_ = true;  // the model is rebuilt from the same reference, cells and materials
+  }
+
   void setMaterials(const std::vector<MaterialParams>& m) override {
     syncToHost();
     materialTable_ = m;

@@ -1,0 +1,181 @@
+#include "state/scene_checkpoint.h"
+
+#include <cstdio>
+#include <string>
+
+#include "mpm/settings_fields.h"
+
+namespace mpm::checkpoint {
+
+namespace {
+
+using Reason = CheckpointError::Reason;
+
+std::string describe(float v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.9g", v);
+  return b;
+}
+std::string describe(int v) { return std::to_string(v); }
+std::string describe(bool v) { return v ? "true" : "false"; }
+std::string describe(Vec3f v) { return "(" + describe(v.x) + ", " + describe(v.y) + ", " + describe(v.z) + ")"; }
+template <class E, std::enable_if_t<std::is_enum_v<E>, int> = 0>
+std::string describe(E v) {
+  return describe((int)v);
+}
+
+bool sameBits(const void* a, const void* b, size_t n) { return std::memcmp(a, b, n) == 0; }
+
+}  // namespace
+
+void writeSettings(Writer& w, const SceneSettings& s) {
+  w.section("settings");
+  forEachField(s, [&](const char* name, const auto& value, FieldRole) {
+    w.putString(name);
+    w.put(value);
+  });
+}
+
+void checkSettings(Reader& r, const SceneSettings& current) {
+  r.section("settings");
+  forEachField(current, [&](const char* name, const auto& mine, FieldRole role) {
+    using T = std::decay_t<decltype(mine)>;
+    if (r.getString("a settings field name") != name)
+      throw CheckpointError(Reason::Version, std::string("its settings do not list ") + name + " where this library does");
+    const T theirs = r.get<T>(name);
+    // bit for bit: a checkpoint resumes the same physics, not a neighbouring one
+    if (role == FieldRole::Model && !sameBits(&theirs, &mine, sizeof(T)))
+      throw CheckpointError(Reason::OtherScene, std::string("of another scene: its ") + name + " = " + describe(theirs) +
+                                                    ", this scene's " + describe(mine));
+  });
+}
+
+void writeBackendState(Writer& w, const BackendState& s) {
+  w.section("particles");
+#define MPM_WRITE_FIELD(type, name) \
+  w.putString(#name);               \
+  w.putArray(s.particles.name);
+  MPM_PARTICLE_FIELDS(MPM_WRITE_FIELD)
+#undef MPM_WRITE_FIELD
+  w.section("meshless");
+  w.putArray(s.reference);
+  w.putArray(s.cells.points);
+  w.putArray(s.cells.volumes);
+  w.putArray(s.cells.surfaceStart);
+  w.putArray(s.cells.surfacePoints);
+  w.putArray(s.cells.surfaceAreas);
+  w.putArray(s.cellSlot);
+}
+
+void readBackendState(Reader& r, BackendState& s) {
+  r.section("particles");
+#define MPM_READ_FIELD(type, name)                                                                        \
+  if (r.getString("a particle field name") != #name)                                                     \
+    throw CheckpointError(Reason::Version, "its particle fields differ from this library's at '" #name "'"); \
+  r.getArray(s.particles.name, "particle field " #name);
+  MPM_PARTICLE_FIELDS(MPM_READ_FIELD)
+#undef MPM_READ_FIELD
+  const size_t n = s.particles.x.size();
+  bool sameCount = true;
+#define MPM_COUNT(type, name) sameCount = sameCount && s.particles.name.size() == n;
+  MPM_PARTICLE_FIELDS(MPM_COUNT)
+#undef MPM_COUNT
+  if (!sameCount) throw CheckpointError(Reason::Truncated, "its particle fields have different lengths");
+  r.section("meshless");
+  r.getArray(s.reference, "meshless reference positions");
+  r.getArray(s.cells.points, "integration cell points");
+  r.getArray(s.cells.volumes, "integration cell volumes");
+  r.getArray(s.cells.surfaceStart, "integration cell surfaces");
+  r.getArray(s.cells.surfacePoints, "integration cell surface points");
+  r.getArray(s.cells.surfaceAreas, "integration cell surface areas");
+  r.getArray(s.cellSlot, "integration cell objects");
+  const bool cellsConsistent = s.cells.volumes.size() == s.cells.points.size() &&
+                               s.cellSlot.size() == s.cells.points.size() &&
+                               s.cells.surfaceStart.size() == s.cells.points.size() + 1 &&
+                               s.cells.surfacePoints.size() == s.cells.surfaceAreas.size() &&
+                               s.cells.surfaceStart.back() == s.cells.surfacePoints.size() &&
+                               (s.reference.empty() || s.reference.size() == n);
+  if (!cellsConsistent) throw CheckpointError(Reason::Truncated, "its meshless model inputs have inconsistent lengths");
+}
+
+void ShapeWriter::write(Writer& w, const ShapeDesc& d) {
+  w.put((uint64_t)d.parts.size());
+  for (const Geometry& g : d.parts) {
+    w.put(g.type);
+    w.put(g.halfExtents);
+    w.put(g.radius);
+    w.put(g.halfHeight);
+    w.put(g.axis);
+    w.put(g.localPose);
+    // the grid: -1 none, k an earlier one, else written here as the next index
+    int32_t index = -1;
+    if (g.sdf) {
+      for (size_t k = 0; k < written_.size() && index < 0; ++k)
+        if (written_[k] == g.sdf.get()) index = (int32_t)k;
+      if (index < 0) {
+        w.put((int32_t)written_.size());
+        w.put(g.sdf->lower);
+        w.put(g.sdf->cellSize);
+        w.put(g.sdf->dims);
+        w.putArray(g.sdf->values);
+        w.put(g.sdf->signReliable);
+        w.putString(g.sdf->signWarning);
+        written_.push_back(g.sdf.get());
+        continue;
+      }
+    }
+    w.put(index);
+  }
+  w.put(d.pose);
+  w.put(d.linearVelocity);
+  w.put(d.angularVelocity);
+  w.put(d.centerOfMass);
+  w.put(d.contact);
+  w.put(d.mass);
+  w.put(d.inertia);
+  w.put(d.gravity);
+}
+
+ShapeDesc ShapeReader::read(Reader& r) {
+  ShapeDesc d;
+  const uint64_t nParts = r.get<uint64_t>("a shape's part count");
+  for (uint64_t p = 0; p < nParts; ++p) {
+    Geometry g;
+    g.type = r.get<GeometryType>("a part's type");
+    g.halfExtents = r.get<Vec3f>("a part's half extents");
+    g.radius = r.get<float>("a part's radius");
+    g.halfHeight = r.get<float>("a part's half height");
+    g.axis = r.get<int>("a part's axis");
+    g.localPose = r.get<Pose>("a part's local pose");
+    const int32_t index = r.get<int32_t>("a part's mesh grid");
+    if (index == (int32_t)read_.size()) {
+      auto grid = std::make_shared<SignedDistanceGrid>();
+      grid->lower = r.get<Vec3f>("a mesh grid's corner");
+      grid->cellSize = r.get<float>("a mesh grid's cell");
+      const auto dims = r.get<std::array<int, 3>>("a mesh grid's size");
+      for (int a = 0; a < 3; ++a) grid->dims[a] = dims[a];
+      r.getArray(grid->values, "a mesh grid's values");
+      grid->signReliable = r.get<bool>("a mesh grid's sign flag");
+      grid->signWarning = r.getString("a mesh grid's warning");
+      if ((uint64_t)grid->dims[0] * (uint64_t)grid->dims[1] * (uint64_t)grid->dims[2] != grid->values.size())
+        throw CheckpointError(Reason::Truncated, "a mesh grid's values do not fill its size");
+      read_.push_back(grid);
+      g.sdf = grid;
+    } else if (index >= 0) {
+      if (index > (int32_t)read_.size()) throw CheckpointError(Reason::Truncated, "a part names a mesh grid not yet read");
+      g.sdf = read_[(size_t)index];
+    }
+    d.parts.push_back(g);
+  }
+  d.pose = r.get<Pose>("a shape's pose");
+  d.linearVelocity = r.get<Vec3f>("a shape's velocity");
+  d.angularVelocity = r.get<Vec3f>("a shape's angular velocity");
+  d.centerOfMass = r.get<Vec3f>("a shape's centre of mass");
+  d.contact = r.get<ContactParams>("a shape's contact");
+  d.mass = r.get<float>("a shape's mass");
+  d.inertia = r.get<Vec3f>("a shape's inertia");
+  d.gravity = r.get<Vec3f>("a shape's gravity");
+  return d;
+}
+
+}  // namespace mpm::checkpoint
