@@ -1,0 +1,41 @@
+#pragma once
+// How many substeps an advance takes: the CFL bound on the fastest elastic wave plus the
+// fastest particle or shape, the solver's own stable step, and the limit past which an
+// advance is refused.
+#include "backend/sim_backend.h"
+#include "core/substep.h"
+#include "scene/particle_seeding.h"
+#include "scene/shape_exchange.h"
+
+namespace mpm {
+
+/// The bounds on the substep over the scene as it is now (SceneSettings.substeps applied).
+struct SubstepBounds {
+  const SceneSettings& settings;
+  const ObjectTable& objects;
+  const ShapeTable& shapes;
+  float maxParticleSpeed;  ///< fastest particle after the last advance, or as seeded [m/s]
+  SimBackend& backend;     ///< not const: stableTimeStep() may finish a deferred setup
+
+  /// Most substeps one advance takes: a day of substeps at 10 ms each. More means a
+  /// material, speed or spacing far from what the scene can step (E = 1e30 Pa asks for
+  /// 2.4e12 substeps in a millisecond); an int count would also overflow.
+  static constexpr float kMaxSubsteps = 1e7f;
+
+  /// Longest substep: the CFL bound on the fastest elastic wave plus the fastest particle
+  /// or shape, and the solver's own stable step.
+  float maxSubstep() const;
+
+  /// Substep count for an advance of dt, unless the user fixed the count. Throws
+  /// InvalidArgument, before anything changes, when that passes kMaxSubsteps.
+  int substepCount(float dt) const;
+
+ private:
+  /// Names what bounds the substep: the stiffest material, the solver's own step, speeds.
+  [[noreturn]] void refuseSubsteps(float dt, float dtMax) const;
+};
+
+/// The constant inputs of each substep of length `dt` [s] under `settings`.
+SubstepParams substepParams(const SceneSettings& settings, float dt);
+
+}  // namespace mpm
