@@ -21,6 +21,7 @@
 #include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
 #include "solvers/solver_list.h"
+#include "state/scene_checkpoint.h"
 
 namespace mpm {
 
@@ -172,6 +173,66 @@ class SceneImpl {
     for (size_t i = 0; i < shapes.size(); ++i) std::tie(shapes[i].state, shapes[i].lastImpulse) = r.shapes[i];
   }
 
+  /// The whole scene as a checkpoint (state/scene_checkpoint.h), with the caller's bytes.
+  std::vector<uint8_t> checkpoint(const std::vector<uint8_t>& attachment) const {
+    checkpoint::Writer w;
+    checkpoint::writeSettings(w, settings);
+    w.section("scene");
+    w.put(time);
+    w.put(maxParticleSpeed);
+    w.put(account);
+    checkpoint::writeObjects(w, objects);
+    checkpoint::writeShapes(w, shapes);
+    BackendState state;
+    backend->exportState(state);
+    checkpoint::writeBackendState(w, state);
+    w.section("attachment");
+    w.putArray(attachment);
+    return w.finish();
+  }
+
+  /// A checkpoint read whole and checked, not yet applied.
+  struct Loaded {
+    double time = 0;
+    float maxParticleSpeed = 0;
+    EnergyAccount account;
+    ObjectTable objects{"ParticleObjectId", "particle object"};
+    ShapeTable shapes{"ShapeId", "shape"};
+    BackendState backend;
+    std::vector<uint8_t> attachment;
+  };
+  Loaded read(const std::vector<uint8_t>& bytes) const {
+    checkpoint::Reader r(bytes.data(), bytes.size());
+    Loaded l;
+    checkpoint::checkSettings(r, settings);
+    r.section("scene");
+    l.time = r.get<double>("the scene's time");
+    l.maxParticleSpeed = r.get<float>("the fastest particle's speed");
+    l.account = r.get<EnergyAccount>("the energy account");
+    checkpoint::readObjects(r, l.objects);
+    checkpoint::readShapes(r, l.shapes);
+    checkpoint::readBackendState(r, l.backend);
+    checkpoint::checkParticles(l.backend, l.objects, solverTraits(settings.solver).meshless);
+    r.section("attachment");
+    r.getArray(l.attachment, "the attachment");
+    r.finish();
+    return l;
+  }
+  /// Replaces the scene with a checkpoint's (read() has refused a bad one by then).
+  std::vector<uint8_t> load(const std::vector<uint8_t>& bytes) {
+    requireIdle("load");
+    Loaded l = read(bytes);
+    time = l.time;
+    maxParticleSpeed = l.maxParticleSpeed;
+    account = l.account;
+    objects = std::move(l.objects);
+    shapes = std::move(l.shapes);
+    bodyOfShape.clear();
+    uploadMaterials();
+    backend->importState(l.backend);
+    return std::move(l.attachment);
+  }
+
   StepReport fetch() {
     if (!pending.valid()) return {};
     auto f = std::move(pending);
@@ -298,6 +359,24 @@ ObjectSummary Scene::summary(ParticleObjectId id) const {
   s.angularMomentum[1] = ly - (c[2] * p[0] - c[0] * p[2]);
   s.angularMomentum[2] = lz - (c[0] * p[1] - c[1] * p[0]);
   return s;
+}
+
+void Scene::save(const std::string& path, const std::vector<uint8_t>& attachment) const {
+  impl_->requireIdle("save");
+  checkpoint::writeFileAtomically(path, impl_->checkpoint(attachment));
+}
+std::vector<uint8_t> Scene::saveToMemory(const std::vector<uint8_t>& attachment) const {
+  impl_->requireIdle("saveToMemory");
+  return impl_->checkpoint(attachment);
+}
+std::vector<uint8_t> Scene::load(const std::string& path) {
+  impl_->requireIdle("load");
+  return impl_->load(checkpoint::readFile(path));
+}
+std::vector<uint8_t> Scene::loadFromMemory(const std::vector<uint8_t>& bytes) { return impl_->load(bytes); }
+std::vector<uint8_t> Scene::attachmentOf(const std::vector<uint8_t>& bytes) const {
+  impl_->requireIdle("attachmentOf");
+  return impl_->read(bytes).attachment;
 }
 
 // the worker thread writes these during a step: read only between steps, like the rest

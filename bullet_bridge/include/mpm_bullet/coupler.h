@@ -39,6 +39,7 @@
 #include <exception>
 #include <functional>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -114,6 +115,21 @@ class Coupler {
   /// tick. Call it after each stepSimulation.
   void rethrowError();
 
+  /// Checkpoints of a coupled scene: Scene::save with the poses and velocities of the
+  /// coupled Bullet bodies (rigid bodies: transform, linear and angular velocity;
+  /// multibodies: base pose and velocities, joint positions and velocities) as its
+  /// attachment, so rewinding puts the tools back where the tissue was. Not kept: the
+  /// warm-start caches of Bullet's own contacts (body on body) and the world's clock (the
+  /// leftover time of a fixed-step stepSimulation). Bodies touching only the tissue step
+  /// on bit for bit as the run that was saved; with Bullet contacts they resume from the
+  /// same poses and velocities. load() refuses (CheckpointError, Unsupported)
+  /// a checkpoint whose coupled bodies differ in number or kind from this coupler's, and
+  /// then changes neither the scene nor the bodies.
+  void save(const std::string& path) const;
+  std::vector<uint8_t> saveToMemory() const;
+  void load(const std::string& path);
+  void loadFromMemory(const std::vector<uint8_t>& checkpoint);
+
   /// Shape of a coupled object, e.g. to read its last impulse.
   ShapeId shapeOf(const btCollisionObject* object) const;
 
@@ -127,6 +143,8 @@ class Coupler {
 
  private:
   struct Link;
+  /// The coupled bodies' poses and velocities, as a checkpoint's attachment.
+  std::vector<uint8_t> bodiesAttachment() const;
   ShapeId addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
                     const CouplingOptions& options);
   btDynamicsWorld* world_;

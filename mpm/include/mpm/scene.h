@@ -7,6 +7,7 @@
 ///   auto id = scene.addParticleObject(block);
 ///   scene.advance(1.f / 60);  /* other work */  scene.fetchResults();
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -138,6 +139,27 @@ class Scene {
   void readDeformationGradients(ParticleObjectId id, std::vector<Mat3f>& out) const;
   /// Mass, centre of mass, momenta and kinetic energy of one object.
   ObjectSummary summary(ParticleObjectId id) const;
+
+  /// Checkpoints. save() writes the whole scene (its model settings, objects and their
+  /// materials, shapes with their mesh grids, every particle field, time, the energy
+  /// account) and `attachment`, the caller's own bytes kept with it (the Bullet coupler
+  /// keeps its bodies there). Files are written whole or not at all: into `path`.tmp,
+  /// flushed, then renamed, so a failed save (CheckpointError, Io) leaves the file that
+  /// was there. Not during a step.
+  void save(const std::string& path, const std::vector<uint8_t>& attachment = {}) const;
+  std::vector<uint8_t> saveToMemory(const std::vector<uint8_t>& attachment = {}) const;
+  /// Replaces this scene's objects, shapes, particles, time and energy account with a
+  /// checkpoint's and returns its attachment. Handles issued before the save name the same
+  /// objects and shapes again. Stepping on is bit for bit the run that was saved (CPU
+  /// backend, same thread count). Refused with CheckpointError, changing nothing, when the
+  /// bytes are not a checkpoint, of another format version, truncated, corrupted (CRC-32)
+  /// or of a scene whose model settings differ (named with both values; the backend and
+  /// thread count may differ). Not during a step.
+  std::vector<uint8_t> load(const std::string& path);
+  std::vector<uint8_t> loadFromMemory(const std::vector<uint8_t>& checkpoint);
+  /// The attachment of a checkpoint this scene would load, checked as load() checks it,
+  /// without loading it (so a caller can refuse its own part before anything changes).
+  std::vector<uint8_t> attachmentOf(const std::vector<uint8_t>& checkpoint) const;
 
   /// Accumulated per-stage times, and resetting them. Not during a step.
   StageTimings timings() const;

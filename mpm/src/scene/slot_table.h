@@ -64,6 +64,32 @@ class SlotTable {
   }
   const Record& lookup(Id id, const char* call) const { return const_cast<SlotTable*>(this)->lookup(id, call); }
 
+  /// Every slot, for checkpoints: its generation, whether it is live, then its record by
+  /// writeRecord(w, record). Handles stay valid across a save and load.
+  template <class Writer, class WriteRecord>
+  void save(Writer& w, WriteRecord&& writeRecord) const {
+    w.put((uint64_t)slots_.size());
+    for (const Slot& s : slots_) {
+      w.put(s.generation);
+      w.put(s.alive);
+      writeRecord(w, s.record);
+    }
+  }
+  /// Replaces the slots with what save() wrote (readRecord(r) returns a record).
+  template <class Reader, class ReadRecord>
+  void load(Reader& r, ReadRecord&& readRecord) {
+    const uint64_t n = r.template get<uint64_t>(idName_);
+    std::vector<Slot> slots;
+    for (uint64_t i = 0; i < n; ++i) {
+      Slot s;
+      s.generation = r.template get<uint32_t>(idName_);
+      s.alive = r.template get<bool>(idName_);
+      s.record = readRecord(r);
+      slots.push_back(std::move(s));
+    }
+    slots_ = std::move(slots);
+  }
+
   /// Slots, live or free.
   size_t size() const { return slots_.size(); }
   bool alive(size_t slot) const { return slots_[slot].alive; }

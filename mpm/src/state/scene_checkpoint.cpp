@@ -98,6 +98,57 @@ void readBackendState(Reader& r, BackendState& s) {
   if (!cellsConsistent) throw CheckpointError(Reason::Truncated, "its meshless model inputs have inconsistent lengths");
 }
 
+void writeObjects(Writer& w, const ObjectTable& objects) {
+  w.section("objects");
+  objects.save(w, [](Writer& out, const ObjectRecord& o) { out.put(o); });
+}
+
+void readObjects(Reader& r, ObjectTable& objects) {
+  r.section("objects");
+  objects.load(r, [](Reader& in) { return in.get<ObjectRecord>("a particle object"); });
+}
+
+void writeShapes(Writer& w, const ShapeTable& shapes) {
+  w.section("shapes");
+  ShapeWriter descs;
+  shapes.save(w, [&](Writer& out, const ShapeRecord& s) {
+    descs.write(out, s.desc);
+    out.put(s.state);
+    out.put(s.lastImpulse);
+  });
+}
+
+void readShapes(Reader& r, ShapeTable& shapes) {
+  r.section("shapes");
+  ShapeReader descs;
+  shapes.load(r, [&](Reader& in) {
+    ShapeRecord s;
+    s.desc = descs.read(in);
+    s.state = in.get<ShapeState>("a shape's state");
+    s.lastImpulse = in.get<ShapeImpulse>("a shape's impulse");
+    return s;
+  });
+}
+
+void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless) {
+  std::vector<size_t> count(objects.size(), 0);
+  const HostParticles& p = s.particles;
+  for (size_t i = 0; i < p.size(); ++i) {
+    const uint32_t o = p.object[i];
+    if (o >= objects.size() || !objects.alive(o) || p.local[i] >= objects[o].particles)
+      throw CheckpointError(Reason::Truncated, "particle " + std::to_string(i) + " names no live object (slot " +
+                                                   std::to_string(o) + ", index " + std::to_string(p.local[i]) + ")");
+    count[o]++;
+  }
+  for (size_t o = 0; o < objects.size(); ++o)
+    if (objects.alive(o) && count[o] != objects[o].particles)
+      throw CheckpointError(Reason::Truncated, "object slot " + std::to_string(o) + " has " + std::to_string(count[o]) +
+                                                   " particles, its record says " + std::to_string(objects[o].particles));
+  if (meshless != (s.reference.size() == p.size() && !p.x.empty()) && !p.x.empty())
+    throw CheckpointError(Reason::Truncated, meshless ? "its meshless nodes have no reference positions"
+                                                      : "it holds meshless reference positions for a grid solver");
+}
+
 void ShapeWriter::write(Writer& w, const ShapeDesc& d) {
   w.put((uint64_t)d.parts.size());
   for (const Geometry& g : d.parts) {

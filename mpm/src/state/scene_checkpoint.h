@@ -1,14 +1,16 @@
 #pragma once
 // What a scene's checkpoint holds, section by section, in the checkpoint container
-// (checkpoint_format.h): the settings (through their field list), the backend's particles
-// (through MPM_PARTICLE_FIELDS) and meshless model inputs, and rigid shapes with their mesh
-// grids. The Scene adds its own records (time, handles, energy account) around these.
+// (mpm/checkpoint_io.h): the settings (through their field list), the backend's particles
+// (through MPM_PARTICLE_FIELDS) and meshless model inputs, the handle tables of objects and
+// of rigid shapes with their mesh grids. The Scene adds time and its energy account.
 #include <memory>
 #include <vector>
 
 #include "backend/sim_backend.h"
 #include "mpm/shapes.h"
-#include "state/checkpoint_format.h"
+#include "scene/particle_seeding.h"
+#include "scene/shape_exchange.h"
+#include "mpm/checkpoint_io.h"
 
 namespace mpm::checkpoint {
 
@@ -20,6 +22,17 @@ void checkSettings(Reader& r, const SceneSettings& current);
 
 void writeBackendState(Writer& w, const BackendState& s);
 void readBackendState(Reader& r, BackendState& s);
+
+/// The handle tables, slot by slot (handles stay valid across a save and load).
+void writeObjects(Writer& w, const ObjectTable& objects);
+void readObjects(Reader& r, ObjectTable& objects);
+void writeShapes(Writer& w, const ShapeTable& shapes);
+void readShapes(Reader& r, ShapeTable& shapes);
+
+/// Refuses (Truncated: the file is inconsistent) particles that name no live object, or
+/// objects whose particle count differs from their particles', or a meshless backend
+/// state without a reference position per node.
+void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless);
 
 /// Shape descriptions; mesh grids shared by several parts or shapes are written once.
 class ShapeWriter {

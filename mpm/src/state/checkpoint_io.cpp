@@ -1,4 +1,4 @@
-#include "state/checkpoint_format.h"
+#include "mpm/checkpoint_io.h"
 
 #include <zlib.h>
 

@@ -1,10 +1,13 @@
 #pragma once
-// The checkpoint container: a 24-byte header (magic, format version, CRC-32 of the payload,
-// payload length) and a payload of named sections written field by field. Readers check
-// every length before they read, so a truncated or corrupted file is refused with a
-// CheckpointError naming what failed, never read out of bounds. Little-endian, as every
-// machine the library targets (x86-64, aarch64, CUDA hosts).
+/// The checkpoint container: a 24-byte header (magic, format version, CRC-32 of the
+/// payload, payload length) and a payload of named sections written field by field.
+/// Public so that the Bullet coupler and embedding programs can write their own records
+/// into a checkpoint's attachment (Scene::save) the same way. Readers check every length
+/// before they read, so a truncated or corrupted file is refused with a CheckpointError
+/// naming what failed, never read out of bounds. Little-endian, as every machine the
+/// library targets (x86-64, aarch64, CUDA hosts).
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <string>
