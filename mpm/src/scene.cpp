@@ -109,7 +109,7 @@ class SceneImpl {
     time += dt;
     const StepCheck c = backend->takeCheck();
     maxParticleSpeed = std::sqrt(c.maxSpeed2);
-    if (c.firstBadParticle != 0xffffffffu) reportDivergence(*backend, c.firstBadParticle, time);
+    if (c.firstBadParticle != 0xffffffffu) reportDivergence(*backend, c.firstBadParticle, time, settings.solver);
     report.activeBlocks = backend->activeBlocks();
     return report;
   }
@@ -140,18 +140,33 @@ class SceneImpl {
       // costs a pass over their memory, see the backends' saveState)
       const Rollback rollback = keep();
       backend->saveState();
-      try {
-        if (energy && !account.started) account.start(*backend, settings, objects);
-        StepReport r = run(dt, n);
-        downloadShapes(shapes, bodyOfShape, *backend);
-        if (energy) r.energy = account.checkAdvance(*backend, settings, objects, shapes, before, time);
-        return r;
-      } catch (...) {
-        backend->restoreState();
-        restore(rollback);
-        throw;
+      for (int halvings = 0;; ++halvings) {
+        try {
+          if (halvings > 0) bodyOfShape = uploadShapes(shapes, settings, *backend);  // moved by the failed attempt
+          if (energy && !account.started) account.start(*backend, settings, objects);
+          StepReport r = run(dt, n << halvings);
+          downloadShapes(shapes, bodyOfShape, *backend);
+          if (energy) r.energy = account.checkAdvance(*backend, settings, objects, shapes, before, time);
+          r.halvings = halvings;
+          return r;
+        } catch (const SimulationDiverged&) {
+          backend->restoreState();
+          restore(rollback);
+          if (!retryWithHalfSubstep(n, halvings)) throw;
+        } catch (...) {
+          backend->restoreState();
+          restore(rollback);
+          throw;
+        }
       }
     });
+  }
+
+  /// Whether a diverged advance of n substeps, halved `halvings` times so far, is taken
+  /// again with half the substep (SceneSettings::recovery).
+  bool retryWithHalfSubstep(int n, int halvings) const {
+    return settings.recovery.enabled && halvings < settings.recovery.maxHalvings &&
+           (float)n * (float)(2 << halvings) <= SubstepBounds::kMaxSubsteps;
   }
 
   /// What an advance changes on the host.

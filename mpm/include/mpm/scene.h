@@ -48,6 +48,9 @@ struct StepReport {
   float substepDt = 0;     ///< length of each [s]
   size_t activeBlocks = 0; ///< grid blocks (4^3 nodes each) touched in the last substep
   EnergyBalance energy;    ///< with SceneSettings::energyCheck enabled, else zeros
+  /// With SceneSettings::recovery: how often this advance diverged and was taken again
+  /// with half the substep (substeps and substepDt are those of the attempt that held).
+  int halvings = 0;
 };
 
 /// Per-object summary read back from the solver (double precision sums).
@@ -104,6 +107,8 @@ class Scene {
   void advance(float dt);
   /// Waits for the step started by advance(); rethrows any error it raised (for instance
   /// SimulationDiverged). Returns immediately if no step is running.
+  /// With SceneSettings::recovery, a diverging advance is first retried with halved
+  /// substeps (StepReport::halvings); it throws once those are spent.
   /// After a failed step the scene is as it was before that advance(): time, particles
   /// (positions, velocities, F, C, their order), the shapes' states and last impulses and
   /// the energy account are put back (each advance keeps a copy of the particle state for

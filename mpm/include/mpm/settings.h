@@ -136,6 +136,19 @@ struct EnergyCheck {
   float noiseSpeed = 1e-3f;
 };
 
+/// Keeps a scene going through an advance that diverges (off by default): the advance is
+/// rolled back to the state before it and taken again with half the substep, up to
+/// `maxHalvings` times, and StepReport::halvings says how often. Diverges means what
+/// SimulationDiverged reports: a non-finite state, a particle leaving the grid, or (with
+/// energyCheck) energy from nowhere. Each retry costs the work of the failed attempts; the
+/// next advance starts again from the substep policy's count. Off, a diverging advance
+/// throws and leaves the scene as it was before it.
+struct Recovery {
+  bool enabled = false;
+  /// Halvings of the substep one advance may try before it throws, in [1, 20].
+  int maxHalvings = 4;
+};
+
 /// Everything a Scene needs at creation.
 struct SceneSettings {
   DomainSettings domain;
@@ -150,6 +163,7 @@ struct SceneSettings {
   /// than its own stable step (MtledSettings::timeStepSafety).
   SubstepPolicy substeps;
   EnergyCheck energyCheck;  ///< off by default
+  Recovery recovery;        ///< off by default
   Backend backend = Backend::Auto;
   int cpuThreads = 0;  ///< CPU backend worker threads; 0 = all hardware threads
 };

@@ -97,6 +97,10 @@ void sceneSettings(const SceneSettings& s) {
   finite("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed);
   if (s.energyCheck.noiseSpeed < 0.f)
     throw InvalidArgument("SceneSettings.energyCheck.noiseSpeed", show(s.energyCheck.noiseSpeed), "must be >= 0");
+  atLeast("SceneSettings.recovery.maxHalvings", s.recovery.maxHalvings, 1);
+  if (s.recovery.maxHalvings > 20)
+    throw InvalidArgument("SceneSettings.recovery.maxHalvings", std::to_string(s.recovery.maxHalvings),
+                          "must be <= 20 (a million times the substeps)");
   atLeast("SceneSettings.cpuThreads", s.cpuThreads, 0);
   const float flip = s.standardMpm.flipBlend;
   if (!(flip >= 0.f && flip <= 1.f))
