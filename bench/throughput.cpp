@@ -169,6 +169,7 @@ struct Options {
   int bandwidthMiB = 256;      ///< array size of the bandwidth measurement; 0 skips it
   bool bandwidthOnly = false;  ///< measure the bandwidth, print it as CSV, and stop
   std::string trajectory;      ///< physics check: write the box's centre of mass per frame here
+  std::string checkpoint;      ///< time Scene::save / load of the scene to this file instead
 };
 
 /// CRESSim-MPM v2.2.0 CPU solvers, serial, in M particle-substeps/s (PB-MPM: M
@@ -590,6 +591,36 @@ int writeTrajectory(const Options& opt) {
   return 0;
 }
 
+/// Checkpoint cost (issue 14): MLS-MPM at the first size and thread count after --frames
+/// frames; --repeats saves to the file and loads from it (and the same in memory), medians
+/// of wall and process CPU time, and the file's size.
+int timeCheckpoint(const Options& opt) {
+  mpm::Scene scene(SolverCase::parse("mls").settings(opt.threads[0], SceneVariant{"plain"}));
+  scene.addParticleObject(CressimBench::box(opt.sizes[0]));
+  for (int f = 0; f < opt.frames; ++f) scene.step(CressimBench::kFrameDt);
+  std::vector<double> wall[4], cpu[4];
+  size_t bytes = 0;
+  const char* names[4] = {"save (file)", "load (file)", "saveToMemory", "loadFromMemory"};
+  std::vector<uint8_t> memory;
+  for (int rep = 0; rep < opt.repeats; ++rep)
+    for (int k = 0; k < 4; ++k) {
+      const double c0 = processCpuSeconds();
+      const auto t0 = std::chrono::steady_clock::now();
+      if (k == 0) scene.save(opt.checkpoint);
+      if (k == 1) scene.load(opt.checkpoint);
+      if (k == 2) memory = scene.saveToMemory();
+      if (k == 3) scene.loadFromMemory(memory);
+      wall[k].push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      cpu[k].push_back(processCpuSeconds() - c0);
+      bytes = memory.size();
+    }
+  std::printf("checkpoint of %zu particles (MLS-MPM, after %d frames): %zu bytes (%.1f per particle)\n",
+              scene.particleCount(), opt.frames, bytes, (double)bytes / (double)scene.particleCount());
+  std::printf("| call | wall ms (median of %d) | CPU ms |\n|---|---:|---:|\n", opt.repeats);
+  for (int k = 0; k < 4; ++k) std::printf("| %s | %.1f | %.1f |\n", names[k], 1e3 * median(wall[k]), 1e3 * median(cpu[k]));
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -643,6 +674,9 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory", opt.trajectory,
                  "physics check: MLS-MPM at the first --sizes and --threads for --frames frames;"
                  " the box's centre of mass per frame to this CSV file, no timing");
+  app.add_option("--checkpoint", opt.checkpoint,
+                 "time Scene::save / load (to this file) and their in-memory forms for MLS-MPM at the first"
+                 " --sizes and --threads after --frames frames, --repeats times; no throughput run");
   CLI11_PARSE(app, argc, argv);
   try {
     for (const std::string& name : opt.solvers) SolverCase::parse(name);
@@ -653,6 +687,7 @@ int main(int argc, char** argv) {
   }
 
   if (!opt.trajectory.empty()) return writeTrajectory(opt);
+  if (!opt.checkpoint.empty()) return timeCheckpoint(opt);
   if (opt.bandwidthOnly) {
     if (opt.bandwidthMiB <= 0) opt.bandwidthMiB = 256;
     std::printf("threads,triad_gb_per_s,update_gb_per_s,array_mib\n");

@@ -130,65 +130,15 @@ TEST_P(Stability, StableRunKeepsItsEnergy) {
   EXPECT_LT(worst, 0.01);
 }
 
-// SceneSettings::recovery on the unstable runs above (PB-MPM: see below): each advance that
-// diverges is rolled back and taken again with half the substep, so the run finishes its
-// 60 steps; the energy stays within the check's tolerance and every particle stays finite
-// and on the grid. Off, the advance that diverges throws and leaves the particles exactly
-// as they were before it. PB-MPM needed its volume check (PbMpm::kMinVolumeRatio): without
-// it its blow-up showed only when a particle left the grid, advances after it began.
-TEST_P(Stability, RecoveryHalvesTheSubstepOfADivergingAdvance) {
-  const SolverType solver = GetParam();
-  const bool pb = solver == SolverType::PbMpm;
-  float dt = (pb ? 20.f : 4.f) * kDx / waveSpeed();
-  if (solver == SolverType::Mtled) {
-    SpinningBlock reference(solver, 0, 1.f);
-    dt = 3.f * reference.scene.maxSubstep();
-  }
-  // PB-MPM: three iterations relaxed by 1.5. The 1.99-relaxed single iteration above is
-  // unstable at any substep (halving does not help: measured, 5 halvings failed)
-  SpinningBlock off(solver, 1, 0.5f, pb ? 1.5f : 1.f, pb ? 3 : 10);
-  std::vector<Vec3f> before, after;
-  bool threw = false;
-  for (int steps = 0; steps < 60 && !threw; ++steps) {
-    off.scene.readPositions(off.id, before);
-    try {
-      off.scene.step(dt);
-    } catch (const SimulationDiverged&) {
-      threw = true;
-    }
-  }
-  ASSERT_TRUE(threw) << "the run must diverge without recovery";
-  off.scene.readPositions(off.id, after);
-  ASSERT_EQ(before.size(), after.size());
-  EXPECT_EQ(std::memcmp(before.data(), after.data(), before.size() * sizeof(Vec3f)), 0)
-      << "the failed advance left the particles changed";
-
-  SpinningBlock on(solver, 1, 0.5f, pb ? 1.5f : 1.f, pb ? 3 : 10);
-  SceneSettings s = on.scene.settings();
-  s.recovery.enabled = true;
-  s.recovery.maxHalvings = 5;
-  Scene scene(s);
-  ParticleObjectDesc d = block();
-  d.angularVelocity = {0.f, 0.f, 5.f};
-  d.particleSpacing = solver == SolverType::Mtled ? kDx : 0.f;
-  const ParticleObjectId id = scene.addParticleObject(d);
-  int halvings = 0, mostHalvings = 0;
-  StepReport r;
-  for (int steps = 0; steps < 60; ++steps) {
-    ASSERT_NO_THROW(r = scene.step(dt)) << "step " << steps;
-    halvings += r.halvings;
-    mostHalvings = std::max(mostHalvings, r.halvings);
-    if (!pb) EXPECT_LE(r.energy.excess(), s.energyCheck.tolerance * r.energy.supplied) << "step " << steps;
-  }
-  std::printf("%s with recovery: 60 steps of %.3g s, %d halvings (at most %d in one advance), energy %.4g J of %.4g\n",
-              test::solverName(solver).c_str(), dt, halvings, mostHalvings, r.energy.kinetic + r.energy.strain,
-              r.energy.start);
-  EXPECT_GT(halvings, 0) << "no advance needed a retry";
-  std::vector<Vec3f> x;
-  scene.readPositions(id, x);
-  for (const Vec3f& p : x) ASSERT_TRUE(std::isfinite(p.x) && std::fabs(p.x) < 0.3f && std::fabs(p.y) < 0.3f);
-}
-
+// SceneSettings::recovery on the unstable runs above: each advance that diverges is rolled
+// back and taken again with half the substep, so the run finishes its 60 steps; the energy
+// stays within the check's tolerance and every particle stays finite and on the grid. Off,
+// the advance that diverges throws and leaves the particles exactly as they were before
+// it. Not PB-MPM: its divergence above (one iteration relaxed by 1.99) does not depend on
+// the step (5 halvings did not help), and relaxed less, at 20-200 dx / c_p, the block only
+// drifts out of the wall-less domain (PB-MPM does not conserve its momentum), which no
+// halving undoes. A volume check (det F outside [0.5, 2]) caught its blow-ups early enough
+// to recover, but also stopped a plate pushing tissue at 1 m/s (det F = 0.499, Contact).
 INSTANTIATE_TEST_SUITE_P(AllSolvers, Stability,
                          test::everySolver(),
                          test::solverParamName());
@@ -242,6 +192,62 @@ TEST(EnergyCheck, PlateWorkIsBooked) {
   EXPECT_GT(r.energy.work, 0.5 * M * v * v);
   EXPECT_LE(r.energy.excess(), 0.0);
 }
+
+class RecoveryRun : public ::testing::TestWithParam<SolverType> {};
+
+TEST_P(RecoveryRun, HalvesTheSubstepOfADivergingAdvance) {
+  const SolverType solver = GetParam();
+  float dt = 4.f * kDx / waveSpeed();
+  if (solver == SolverType::Mtled) {
+    SpinningBlock reference(solver, 0, 1.f);
+    dt = 3.f * reference.scene.maxSubstep();
+  }
+  SpinningBlock off(solver, 1, 0.5f, 1.f, 10);
+  std::vector<Vec3f> before, after;
+  bool threw = false;
+  for (int steps = 0; steps < 60 && !threw; ++steps) {
+    off.scene.readPositions(off.id, before);
+    try {
+      off.scene.step(dt);
+    } catch (const SimulationDiverged&) {
+      threw = true;
+    }
+  }
+  ASSERT_TRUE(threw) << "the run must diverge without recovery";
+  off.scene.readPositions(off.id, after);
+  ASSERT_EQ(before.size(), after.size());
+  EXPECT_EQ(std::memcmp(before.data(), after.data(), before.size() * sizeof(Vec3f)), 0)
+      << "the failed advance left the particles changed";
+
+  SpinningBlock on(solver, 1, 0.5f, 1.f, 10);
+  SceneSettings s = on.scene.settings();
+  s.recovery.enabled = true;
+  s.recovery.maxHalvings = 5;
+  Scene scene(s);
+  ParticleObjectDesc d = block();
+  d.angularVelocity = {0.f, 0.f, 5.f};
+  d.particleSpacing = solver == SolverType::Mtled ? kDx : 0.f;
+  const ParticleObjectId id = scene.addParticleObject(d);
+  int halvings = 0, mostHalvings = 0;
+  StepReport r;
+  for (int steps = 0; steps < 60; ++steps) {
+    ASSERT_NO_THROW(r = scene.step(dt)) << "step " << steps;
+    halvings += r.halvings;
+    mostHalvings = std::max(mostHalvings, r.halvings);
+    EXPECT_LE(r.energy.excess(), s.energyCheck.tolerance * r.energy.supplied) << "step " << steps;
+  }
+  std::printf("%s with recovery: 60 steps of %.3g s, %d halvings (at most %d in one advance), energy %.4g J of %.4g\n",
+              test::solverName(solver).c_str(), dt, halvings, mostHalvings, r.energy.kinetic + r.energy.strain,
+              r.energy.start);
+  EXPECT_GT(halvings, 0) << "no advance needed a retry";
+  std::vector<Vec3f> x;
+  scene.readPositions(id, x);
+  for (const Vec3f& p : x) ASSERT_TRUE(std::isfinite(p.x) && std::fabs(p.x) < 0.3f && std::fabs(p.y) < 0.3f);
+}
+
+INSTANTIATE_TEST_SUITE_P(StepDependentDivergence, RecoveryRun,
+                         ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm, SolverType::Mtled),
+                         test::solverParamName());
 
 TEST(Recovery, SettingsAreValidated) {
   SceneSettings s;

@@ -109,7 +109,7 @@ class SceneImpl {
     time += dt;
     const StepCheck c = backend->takeCheck();
     maxParticleSpeed = std::sqrt(c.maxSpeed2);
-    if (c.firstBadParticle != 0xffffffffu) reportDivergence(*backend, c.firstBadParticle, time, settings.solver);
+    if (c.firstBadParticle != 0xffffffffu) reportDivergence(*backend, c.firstBadParticle, time);
     report.activeBlocks = backend->activeBlocks();
     return report;
   }

@@ -68,6 +68,12 @@ class Reader {
     take(&v, sizeof(T), what);
     return v;
   }
+  /// get() into `out` (also a fixed-size array).
+  template <class T>
+  void getInto(T& out, const char* what) {
+    static_assert(std::is_trivially_copyable_v<T>, "getInto: plain data only");
+    take(&out, sizeof(T), what);
+  }
   template <class T>
   void getArray(std::vector<T>& out, const char* what) {
     static_assert(std::is_trivially_copyable_v<T>, "getArray: plain data only");

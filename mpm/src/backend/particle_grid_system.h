@@ -27,13 +27,7 @@ namespace kernels {
 
 struct ZeroNodes {
   GridNode* nodes;
-  MPM_HD void operator()(size_t n) const {
-    nodes[n].mass = 0.f;
-    nodes[n].mv = Vec3f{0.f, 0.f, 0.f};
-    nodes[n].mx = Vec3f{0.f, 0.f, 0.f};
-    nodes[n].dmv = Vec3f{0.f, 0.f, 0.f};
-    nodes[n].touch = 0.f;
-  }
+  MPM_HD void operator()(size_t n) const { nodes[n] = GridNode{}; }  // every field (MPM_GRID_NODE_FIELDS) zero
 };
 
 /// out[i] = in[order[i]]: applies a sort permutation to one field.

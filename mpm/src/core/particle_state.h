@@ -1,7 +1,10 @@
 #pragma once
-// Dynamic particle state as a structure of arrays. The fields are listed once, in
-// MPM_PARTICLE_FIELDS, so allocation, permutation (sorting by grid block), appending,
-// removal and host/device copies are all generated from the one list.
+// Particle fields as a structure of arrays. The fields are listed once, split by role
+// (MuJoCo's mjModel / mjData): model fields are fixed for a particle's life, state fields
+// change every substep. Allocation, permutation (sorting by grid block), appending,
+// removal, host/device copies, the rollback of a failed advance and checkpoints are all
+// generated from MPM_PARTICLE_FIELDS, the two lists together. The rollback copies the
+// model fields too: the sort at the start of an advance permutes them with the state.
 #include <cstdint>
 
 #include "mpm/math.h"
@@ -9,16 +12,18 @@
 namespace mpm {
 
 // X(type, name): one array per field, one element per particle.
-#define MPM_PARTICLE_FIELDS(X)                                              \
-  X(Vec3f, x)          /* position [m] */                                    \
-  X(Vec3f, v)          /* velocity [m/s] */                                  \
-  X(Mat3f, C)          /* APIC affine velocity field [1/s] */                \
-  X(Mat3f, F)          /* deformation gradient */                            \
+#define MPM_PARTICLE_MODEL_FIELDS(X)                                        \
   X(float, mass)       /* [kg] */                                            \
   X(float, volume0)    /* rest volume [m^3] */                               \
   X(uint32_t, object)  /* slot of the owning ParticleObject (its material) */ \
-  X(uint32_t, local)   /* index within the object, stable across sorting */ \
+  X(uint32_t, local)   /* index within the object, stable across sorting */
+#define MPM_PARTICLE_STATE_FIELDS(X)                        \
+  X(Vec3f, x)          /* position [m] */                    \
+  X(Vec3f, v)          /* velocity [m/s] */                  \
+  X(Mat3f, C)          /* APIC affine velocity field [1/s] */ \
+  X(Mat3f, F)          /* deformation gradient */            \
   X(float, touch)      /* 1 if it ended its last substep touching a shape */
+#define MPM_PARTICLE_FIELDS(X) MPM_PARTICLE_STATE_FIELDS(X) MPM_PARTICLE_MODEL_FIELDS(X)
 
 /// Non-owning view of the particle arrays, passed to kernels by value.
 struct ParticleView {

@@ -14,20 +14,40 @@ constexpr int kBlockSize = 1 << kBlockBits;  // nodes per block edge
 constexpr int kBlockNodes = kBlockSize * kBlockSize * kBlockSize;
 constexpr int kBlockMask = kBlockSize - 1;
 
-/// One grid node: mass and momentum during P2G, mass and velocity after the grid update.
+/// How a mirror plane (DomainSettings::mirrorLower) reflects a node field (MirrorFold,
+/// MirrorUnfold in grid_update.h): an Amount adds as it is (mass), a Vector's normal
+/// component flips (momentum, velocity), a Moment sum w m x reflects its point (x -> 2
+/// plane - x).
+namespace node_image {
+struct Amount {};
+struct Vector {};
+struct Moment {};
+}  // namespace node_image
+
+/// The grid node's fields, once: X(type, name, image). All are rebuilt every substep (P2G
+/// writes them from the particles), so none is state a checkpoint keeps.
+///   mass   sum w m [kg]
+///   mv     momentum [kg m/s]; velocity [m/s] after the grid update
+///   mx     sum w m x_p: where the node's material is (m x-bar). Accumulated only when the
+///          scene has shapes; contact uses it to tell which side of a thin shape the
+///          material is on
+///   dmv    standard MPM only: the momentum the stress adds over the substep, dt f_int;
+///          the node's velocity before the update (for the FLIP increment) after it
+///   touch  sum w m over the particles touching a shape (ParticleView::touch): how much of
+///          the node's material rests on a shape (materialTouches)
+/// The transfers move them in Float4 lanes ({mass, mv}, {touch, mx}, {0, dmv}: BlockTile,
+/// GridNodes), a SIMD layout written out by hand there.
+#define MPM_GRID_NODE_FIELDS(X) \
+  X(float, mass, node_image::Amount) \
+  X(Vec3f, mv, node_image::Vector)   \
+  X(Vec3f, mx, node_image::Moment)   \
+  X(Vec3f, dmv, node_image::Vector)  \
+  X(float, touch, node_image::Amount)
+
 struct GridNode {
-  float mass;
-  Vec3f mv;  ///< momentum [kg m/s]; velocity [m/s] after gridUpdate
-  /// sum of w m x_p: where the node's material is (m x-bar). Accumulated only when the
-  /// scene has shapes; contact uses it to tell which side of a thin shape the material
-  /// is on.
-  Vec3f mx;
-  /// Standard MPM only: the momentum the stress adds over the substep, dt f_int; the
-  /// node's velocity before the update (for the FLIP increment) once the grid is updated.
-  Vec3f dmv;
-  /// sum of w m over the particles touching a shape (ParticleView::touch): how much of the
-  /// node's material rests on a shape (materialTouches).
-  float touch;
+#define MPM_NODE_MEMBER(type, name, image) type name;
+  MPM_GRID_NODE_FIELDS(MPM_NODE_MEMBER)
+#undef MPM_NODE_MEMBER
 };
 
 /// A node with less mass than this holds no material: it takes no velocity and no contact.

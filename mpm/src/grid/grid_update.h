@@ -65,6 +65,27 @@ MPM_HD void reflectNode(const WallParams& walls, int axes, int idx[3], Vec3f& si
     }
 }
 
+/// A ghost's field folded onto its real node, by how the plane reflects it (Amount,
+/// Vector, Moment); `plane` holds each mirrored axis' plane position.
+MPM_HD void foldImage(node_image::Amount, float& node, float ghost, Vec3f, Vec3f, float) { node += ghost; }
+MPM_HD void foldImage(node_image::Vector, Vec3f& node, Vec3f ghost, Vec3f sign, Vec3f, float) { node += hadamard(sign, ghost); }
+MPM_HD void foldImage(node_image::Moment, Vec3f& node, Vec3f ghost, Vec3f sign, Vec3f plane, float ghostMass) {
+  for (int a = 0; a < 3; ++a)  // the image of x is 2 plane - x
+    node[a] += sign[a] > 0.f ? ghost[a] : 2.f * plane[a] * ghostMass - ghost[a];
+}
+/// A field of a node on the plane of axis a: the images cancel a Vector's normal part and
+/// put a Moment's point on the plane.
+MPM_HD void onPlane(node_image::Amount, float&, int, Vec3f, float) {}
+MPM_HD void onPlane(node_image::Vector, Vec3f& f, int a, Vec3f, float) { f[a] = 0.f; }
+MPM_HD void onPlane(node_image::Moment, Vec3f& f, int a, Vec3f plane, float mass) { f[a] = plane[a] * mass; }
+/// A ghost's field for G2P after the update: a Vector takes its real node's, reflected;
+/// the others are not read there.
+MPM_HD void unfoldImage(node_image::Amount, float&, const float*, Vec3f) {}
+MPM_HD void unfoldImage(node_image::Moment, Vec3f&, const Vec3f*, Vec3f) {}
+MPM_HD void unfoldImage(node_image::Vector, Vec3f& ghost, const Vec3f* real, Vec3f sign) {
+  ghost = real ? hadamard(sign, *real) : Vec3f{0.f, 0.f, 0.f};
+}
+
 /// Folds the ghost images of node `n` onto it (after P2G, before the grid update): every
 /// ghost is read and emptied by exactly one real node, so nodes run in parallel.
 struct MirrorFold {
@@ -80,25 +101,24 @@ struct MirrorFold {
       if (idx[a] > walls.thickness) above |= 1 << a;
     }
     GridNode& node = grid.nodes[n];
+    const Vec3f planes{plane(0), plane(1), plane(2)};
     for (int axes = above; axes; axes = (axes - 1) & above) {  // every non-empty subset
       int g[3] = {idx[0], idx[1], idx[2]};
       Vec3f sign;
       reflectNode(walls, axes, g, sign);
       GridNode* ghost = grid.find(g[0], g[1], g[2]);
       if (!ghost || ghost->mass == 0.f) continue;
-      node.mass += ghost->mass;
-      node.mv += hadamard(sign, ghost->mv);
-      node.dmv += hadamard(sign, ghost->dmv);
-      node.touch += ghost->touch;
-      for (int a = 0; a < 3; ++a)  // the image of x is 2 plane - x
-        node.mx[a] += sign[a] > 0.f ? ghost->mx[a] : 2.f * plane(a) * ghost->mass - ghost->mx[a];
-      *ghost = GridNode{0.f, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}, Vec3f{0.f, 0.f, 0.f}, 0.f};
+      const float ghostMass = ghost->mass;
+#define MPM_FOLD(type, name, image) foldImage(image{}, node.name, ghost->name, sign, planes, ghostMass);
+      MPM_GRID_NODE_FIELDS(MPM_FOLD)
+#undef MPM_FOLD
+      *ghost = GridNode{};
     }
     for (int a = 0; a < 3; ++a)
-      if (walls.mirrored(a) && idx[a] == walls.thickness) {  // the images cancel the normal part
-        node.mv[a] = 0.f;
-        node.dmv[a] = 0.f;
-        node.mx[a] = plane(a) * node.mass;
+      if (walls.mirrored(a) && idx[a] == walls.thickness) {
+#define MPM_ON_PLANE(type, name, image) onPlane(image{}, node.name, a, planes, node.mass);
+        MPM_GRID_NODE_FIELDS(MPM_ON_PLANE)
+#undef MPM_ON_PLANE
       }
   }
   MPM_HD float plane(int a) const { return grid.geo.lower[a] + (float)walls.thickness * grid.geo.dx; }
@@ -120,8 +140,9 @@ struct MirrorUnfold {
     reflectNode(walls, below, idx, sign);
     const GridNode* real = grid.find(idx[0], idx[1], idx[2]);
     GridNode& node = grid.nodes[n];
-    node.mv = real ? hadamard(sign, real->mv) : Vec3f{0.f, 0.f, 0.f};
-    node.dmv = real ? hadamard(sign, real->dmv) : Vec3f{0.f, 0.f, 0.f};
+#define MPM_UNFOLD(type, name, image) unfoldImage(image{}, node.name, real ? &real->name : nullptr, sign);
+    MPM_GRID_NODE_FIELDS(MPM_UNFOLD)
+#undef MPM_UNFOLD
   }
 };
 

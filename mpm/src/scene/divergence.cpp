@@ -15,14 +15,10 @@ std::string describeParticle(const HostParticles& all, uint32_t particle, double
   return s.str();
 }
 
-void reportDivergence(const SimBackend& backend, uint32_t particle, double time, SolverType solver) {
+void reportDivergence(const SimBackend& backend, uint32_t particle, double time) {
   HostParticles all;
   backend.download(all);
-  throw SimulationDiverged(describeParticle(all, particle, time) +
-                           (solver == SolverType::PbMpm
-                                ? ": its state is not finite, it left the grid, or its volume ratio left [0.5, 2] (PB-MPM's "
-                                  "constraint holds it at 1)"
-                                : ": its state is not finite or it left the grid"));
+  throw SimulationDiverged(describeParticle(all, particle, time) + ": its state is not finite or it left the grid");
 }
 
 }  // namespace mpm

@@ -12,6 +12,6 @@ std::string describeParticle(const HostParticles& all, uint32_t particle, double
 
 /// Throws SimulationDiverged for `particle`, whose state is not finite or which left the
 /// grid (StepCheck::firstBadParticle) at scene time `time` [s].
-[[noreturn]] void reportDivergence(const SimBackend& backend, uint32_t particle, double time, SolverType solver);
+[[noreturn]] void reportDivergence(const SimBackend& backend, uint32_t particle, double time);
 
 }  // namespace mpm

@@ -28,6 +28,18 @@
 
 namespace mpm {
 
+/// MTLED's arrays in Exec memory, F(role, type, name) for member name_: the nodes' motion
+/// (state, with saveState()'s copy), the model prepare() builds from the nodes' reference
+/// positions, the integration cells and the materials (rebuilt, not stored, by
+/// checkpoints: BackendState), and scratch each substep rewrites.
+#define MPM_MTLED_ARRAYS(F)                                                                   \
+  F(State, Vec3f, x) F(State, Vec3f, v) F(State, Vec3f, xSaved) F(State, Vec3f, vSaved)       \
+  F(Model, Vec3f, X) F(Model, float, mass) F(Model, float, volumes) F(Model, uint32_t, carrier) \
+  F(Model, uint32_t, termStart) F(Model, uint32_t, support) F(Model, uint32_t, pointObject)   \
+  F(Model, uint32_t, forceStart) F(Model, uint32_t, forceTerms) F(Model, Vec3f, gradients)    \
+  F(Model, MaterialParams, materials)                                                         \
+  F(Scratch, Vec3f, forces) F(Scratch, ContactSums, nodeSums)
+
 /// The static model MTLED precomputes from the nodes and integration cells (host side).
 struct MtledModel {
   int supportNodes = 0;                ///< n
@@ -199,14 +211,9 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   template <class... Args>
   explicit MtledSystem(const MtledSettings& settings, Args&&... execArgs)
       : ExecOwner<Exec>(std::forward<Args>(execArgs)...), ShapeBackend<Exec>(this->exec_), settings_(settings) {
-    for (auto* a : {&x_, &v_, &X_, &xSaved_, &vSaved_}) a->bind(&exec_);
-    for (auto* a : {&carrier_, &termStart_, &support_, &pointObject_, &forceStart_, &forceTerms_}) a->bind(&exec_);
-    mass_.bind(&exec_);
-    volumes_.bind(&exec_);
-    gradients_.bind(&exec_);
-    forces_.bind(&exec_);
-    materials_.bind(&exec_);
-    nodeSums_.bind(&exec_);
+#define MPM_BIND(role, type, name) name##_.bind(&exec_);
+    MPM_MTLED_ARRAYS(MPM_BIND)
+#undef MPM_BIND
   }
 
   /// Objects never share a support domain: the new object's model alone tells whether
@@ -378,9 +385,11 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   size_t particleCount() const override { return nodes_.size(); }
   size_t activeBlocks() const override { return 0; }  // no grid
   size_t memoryBytes() const override {
-    return x_.bytes() + v_.bytes() + xSaved_.bytes() + vSaved_.bytes() + X_.bytes() + mass_.bytes() +
-           carrier_.bytes() + termStart_.bytes() + support_.bytes() + gradients_.bytes() + volumes_.bytes() + pointObject_.bytes() + forceStart_.bytes() +
-           forceTerms_.bytes() + forces_.bytes() + materials_.bytes() + nodeSums_.bytes() + shapes_.memoryBytes();
+    size_t b = shapes_.memoryBytes();
+#define MPM_BYTES(role, type, name) b += name##_.bytes();
+    MPM_MTLED_ARRAYS(MPM_BYTES)
+#undef MPM_BYTES
+    return b;
   }
 
  private:
@@ -463,14 +472,10 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   MtledModel model_;
   bool dirty_ = false;     ///< the model no longer matches the nodes, cells or materials
   bool onDevice_ = false;  ///< the nodes' motion is newer on the device than in nodes_
-  ExecArray<Vec3f, Exec> xSaved_, vSaved_;  ///< saveState()'s copy
-  // Exec side: the dynamic state and the model the kernels read
-  ExecArray<Vec3f, Exec> x_, v_, X_;
-  ExecArray<float, Exec> mass_, volumes_;
-  ExecArray<uint32_t, Exec> carrier_, termStart_, support_, pointObject_, forceStart_, forceTerms_;
-  ExecArray<Vec3f, Exec> gradients_, forces_;
-  ExecArray<MaterialParams, Exec> materials_;
-  ExecArray<ContactSums, Exec> nodeSums_;
+  // Exec side: the arrays the kernels read and write (MPM_MTLED_ARRAYS)
+#define MPM_MEMBER(role, type, name) ExecArray<type, Exec> name##_;
+  MPM_MTLED_ARRAYS(MPM_MEMBER)
+#undef MPM_MEMBER
 };
 
 }  // namespace mpm

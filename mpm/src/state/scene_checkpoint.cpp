@@ -149,15 +149,45 @@ void checkParticles(const BackendState& s, const ObjectTable& objects, bool mesh
                                                       : "it holds meshless reference positions for a grid solver");
 }
 
+namespace {
+
+// The plain fields of a part, a shape and a mesh grid, once for writing and reading:
+// f(field, what) for each (what names it in a refusal).
+template <class G, class F>
+void partFields(G& g, F&& f) {
+  f(g.type, "a part's type");
+  f(g.halfExtents, "a part's half extents");
+  f(g.radius, "a part's radius");
+  f(g.halfHeight, "a part's half height");
+  f(g.axis, "a part's axis");
+  f(g.localPose, "a part's local pose");
+}
+template <class D, class F>
+void shapeFields(D& d, F&& f) {
+  f(d.pose, "a shape's pose");
+  f(d.linearVelocity, "a shape's velocity");
+  f(d.angularVelocity, "a shape's angular velocity");
+  f(d.centerOfMass, "a shape's centre of mass");
+  f(d.contact, "a shape's contact");
+  f(d.mass, "a shape's mass");
+  f(d.inertia, "a shape's inertia");
+  f(d.gravity, "a shape's gravity");
+}
+template <class S, class F>
+void gridFields(S& s, F&& f) {
+  f(s.lower, "a mesh grid's corner");
+  f(s.cellSize, "a mesh grid's cell");
+  f(s.dims, "a mesh grid's size");
+  f(s.signReliable, "a mesh grid's sign flag");
+}
+
+}  // namespace
+
 void ShapeWriter::write(Writer& w, const ShapeDesc& d) {
   w.put((uint64_t)d.parts.size());
+  const auto put = [&](const auto& field, const char*) { w.put(field); };
   for (const Geometry& g : d.parts) {
-    w.put(g.type);
-    w.put(g.halfExtents);
-    w.put(g.radius);
-    w.put(g.halfHeight);
-    w.put(g.axis);
-    w.put(g.localPose);
+    partFields(g, put);
     // the grid: -1 none, k an earlier one, else written here as the next index
     int32_t index = -1;
     if (g.sdf) {
@@ -165,11 +195,8 @@ void ShapeWriter::write(Writer& w, const ShapeDesc& d) {
         if (written_[k] == g.sdf.get()) index = (int32_t)k;
       if (index < 0) {
         w.put((int32_t)written_.size());
-        w.put(g.sdf->lower);
-        w.put(g.sdf->cellSize);
-        w.put(g.sdf->dims);
+        gridFields(*g.sdf, put);
         w.putArray(g.sdf->values);
-        w.put(g.sdf->signReliable);
         w.putString(g.sdf->signWarning);
         written_.push_back(g.sdf.get());
         continue;
@@ -177,36 +204,21 @@ void ShapeWriter::write(Writer& w, const ShapeDesc& d) {
     }
     w.put(index);
   }
-  w.put(d.pose);
-  w.put(d.linearVelocity);
-  w.put(d.angularVelocity);
-  w.put(d.centerOfMass);
-  w.put(d.contact);
-  w.put(d.mass);
-  w.put(d.inertia);
-  w.put(d.gravity);
+  shapeFields(d, put);
 }
 
 ShapeDesc ShapeReader::read(Reader& r) {
   ShapeDesc d;
+  const auto get = [&](auto& field, const char* what) { r.getInto(field, what); };
   const uint64_t nParts = r.get<uint64_t>("a shape's part count");
   for (uint64_t p = 0; p < nParts; ++p) {
     Geometry g;
-    g.type = r.get<GeometryType>("a part's type");
-    g.halfExtents = r.get<Vec3f>("a part's half extents");
-    g.radius = r.get<float>("a part's radius");
-    g.halfHeight = r.get<float>("a part's half height");
-    g.axis = r.get<int>("a part's axis");
-    g.localPose = r.get<Pose>("a part's local pose");
+    partFields(g, get);
     const int32_t index = r.get<int32_t>("a part's mesh grid");
     if (index == (int32_t)read_.size()) {
       auto grid = std::make_shared<SignedDistanceGrid>();
-      grid->lower = r.get<Vec3f>("a mesh grid's corner");
-      grid->cellSize = r.get<float>("a mesh grid's cell");
-      const auto dims = r.get<std::array<int, 3>>("a mesh grid's size");
-      for (int a = 0; a < 3; ++a) grid->dims[a] = dims[a];
+      gridFields(*grid, get);
       r.getArray(grid->values, "a mesh grid's values");
-      grid->signReliable = r.get<bool>("a mesh grid's sign flag");
       grid->signWarning = r.getString("a mesh grid's warning");
       if ((uint64_t)grid->dims[0] * (uint64_t)grid->dims[1] * (uint64_t)grid->dims[2] != grid->values.size())
         throw CheckpointError(Reason::Truncated, "a mesh grid's values do not fill its size");
@@ -218,14 +230,7 @@ ShapeDesc ShapeReader::read(Reader& r) {
     }
     d.parts.push_back(g);
   }
-  d.pose = r.get<Pose>("a shape's pose");
-  d.linearVelocity = r.get<Vec3f>("a shape's velocity");
-  d.angularVelocity = r.get<Vec3f>("a shape's angular velocity");
-  d.centerOfMass = r.get<Vec3f>("a shape's centre of mass");
-  d.contact = r.get<ContactParams>("a shape's contact");
-  d.mass = r.get<float>("a shape's mass");
-  d.inertia = r.get<Vec3f>("a shape's inertia");
-  d.gravity = r.get<Vec3f>("a shape's gravity");
+  shapeFields(d, get);
   return d;
 }
 
