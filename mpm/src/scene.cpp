@@ -6,7 +6,7 @@
 #include <cmath>
 #include <condition_variable>
 #include <functional>
-#include <future>
+#include <exception>
 #include <limits>
 #include <mutex>
 #include <sstream>
@@ -60,6 +60,13 @@ Mat3f skew(Vec3f w) {
 /// The one thread that runs a scene's steps. It lives as long as the scene: a new thread per
 /// advance() would also make OpenMP build a new thread team every frame (measured: binning
 /// on 2 threads took 10 ms per frame at 8k particles against 1.4 ms on 1).
+///
+/// The result is handed over under the worker's mutex, and the worker lets go of the job and
+/// of any exception it threw before that: the job's captures are destroyed on the worker,
+/// the exception on the caller's thread. (With std::packaged_task the worker held the
+/// shared state, and so the exception, until after the caller had seen it; whichever
+/// thread dropped the last reference destroyed it, ordered only by libstdc++'s
+/// uninstrumented reference count, which ThreadSanitizer reported as a race.)
 class StepWorker {
  public:
   StepWorker() : thread_([this] { loop(); }) {}
@@ -71,37 +78,66 @@ class StepWorker {
     wake_.notify_all();
     thread_.join();
   }
-  std::future<StepReport> submit(std::function<StepReport()> job) {
-    std::packaged_task<StepReport()> task(std::move(job));
-    std::future<StepReport> result = task.get_future();
+  /// Starts `job`; the previous job's result must have been taken by wait().
+  void submit(std::function<StepReport()> job) {
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      task_ = std::move(task);
-      pending_ = true;
+      job_ = std::move(job);
+      queued_ = true;
+      done_ = false;
     }
     wake_.notify_all();
-    return result;
+  }
+  /// Waits for the submitted job; returns its report or rethrows what it threw.
+  StepReport wait() {
+    std::exception_ptr error;
+    StepReport report;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      finished_.wait(lock, [this] { return done_; });
+      done_ = false;
+      error = std::move(error_);
+      report = std::move(report_);
+    }
+    if (error) std::rethrow_exception(std::move(error));
+    return report;
   }
 
  private:
   void loop() {
     for (;;) {
-      std::packaged_task<StepReport()> task;
+      std::function<StepReport()> job;
       {
         std::unique_lock<std::mutex> lock(mutex_);
-        wake_.wait(lock, [this] { return stop_ || pending_; });
-        if (!pending_) return;
-        task = std::move(task_);
-        pending_ = false;
+        wake_.wait(lock, [this] { return stop_ || queued_; });
+        if (!queued_) return;
+        job = std::move(job_);
+        queued_ = false;
       }
-      task();  // an exception is stored in the future, rethrown by fetchResults()
+      StepReport report;
+      std::exception_ptr error;
+      try {
+        report = job();
+      } catch (...) {
+        error = std::current_exception();  // rethrown by wait(), i.e. fetchResults()
+      }
+      job = nullptr;  // its captures go here, before the caller can see the result
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        report_ = std::move(report);
+        error_ = std::move(error);  // the worker keeps no reference to it
+        done_ = true;
+      }
+      finished_.notify_all();
     }
   }
 
   std::mutex mutex_;
-  std::condition_variable wake_;
-  std::packaged_task<StepReport()> task_;
-  bool pending_ = false, stop_ = false;
+  std::condition_variable wake_, finished_;
+  std::function<StepReport()> job_;
+  StepReport report_;
+  std::exception_ptr error_;
+  bool queued_ = false, done_ = false, stop_ = false;
   std::thread thread_;  // last: starts after the members it uses exist
 };
 
@@ -145,11 +181,15 @@ class SceneImpl {
   }
 
   ~SceneImpl() {
-    if (pending.valid()) pending.wait();
+    if (!stepping) return;
+    try {
+      worker.wait();
+    } catch (...) {  // an error nobody fetched: the scene goes anyway
+    }
   }
 
   void requireIdle(const char* call) const {
-    if (pending.valid())
+    if (stepping)
       throw Error(std::string(call) + ": a step is running; call fetchResults() first");
   }
 
@@ -640,7 +680,7 @@ class SceneImpl {
     std::vector<ShapeState> before;
     if (energy)
       for (const ShapeRecord& r : shapes) before.push_back(r.state);
-    pending = worker.submit([this, dt, n, energy, before = std::move(before)] {
+    worker.submit([this, dt, n, energy, before = std::move(before)] {
       // a failed advance is undone: what it changes is kept first (the particles' copy
       // costs a pass over their memory, see the backends' saveState)
       const Rollback rollback = keep();
@@ -657,6 +697,7 @@ class SceneImpl {
         throw;
       }
     });
+    stepping = true;
   }
 
   /// What an advance changes on the host.
@@ -679,9 +720,9 @@ class SceneImpl {
   }
 
   StepReport fetch() {
-    if (!pending.valid()) return {};
-    auto f = std::move(pending);
-    return f.get();
+    if (!stepping) return {};
+    stepping = false;
+    return worker.wait();
   }
 
   SceneSettings settings;
@@ -693,7 +734,7 @@ class SceneImpl {
   std::vector<int> bodyOfShape;  ///< shape slot -> body index in the backend, or -1
   float maxParticleSpeed = 0.f;
   double time = 0.0;
-  std::future<StepReport> pending;
+  bool stepping = false;  ///< an advance was submitted and its result not yet fetched
   StepWorker worker;  // after everything its jobs touch, so it stops first
 };
 
