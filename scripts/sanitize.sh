@@ -19,6 +19,7 @@ set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 scripts/setup.sh
+echo "sanitize: the sanitizer trees are CPU only (MPM_WITH_CUDA=OFF)"
 jobs="$(nproc)"
 which="${1:-all}"
 [ $# -gt 0 ] && shift
@@ -35,7 +36,8 @@ supp="$root/scripts/sanitizers"
 # --- AddressSanitizer + UndefinedBehaviorSanitizer -----------------------------------------
 # Every test under ASan/UBSan took 1.5 h on two cores (up to 30x Release), so this tree runs
 # the tests that took under about 15 s each under ASan here (2026-12, two shared cores):
-# 180 tests, about 500 s of test time, 5 minutes with ctest -j 2. They reach every solver
+# 180 tests (and the CUDA cases, which skip), about 500 s of test time: 5 min with
+# ctest -j 2 on idle cores, 10 min measured with the machine shared. They reach every solver
 # (MLS-MPM, standard MPM, PB-MPM, MTLED), the CPU backend with 1 and 2 OpenMP threads
 # (Determinism), walls and mirror planes, every shape kind and mesh SDFs, contact, the
 # Bullet coupling (BulletPhysics, BulletCouplingErrors), mesh import (assimp), PLY/PNG
