@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <future>
 #include <tuple>
 #include <utility>
 
@@ -65,11 +64,15 @@ class SceneImpl {
   }
 
   ~SceneImpl() {
-    if (pending.valid()) pending.wait();
+    if (!stepping) return;
+    try {
+      worker.wait();
+    } catch (...) {  // an error nobody fetched: the scene goes anyway
+    }
   }
 
   void requireIdle(const char* call) const {
-    if (pending.valid())
+    if (stepping)
       throw Error(std::string(call) + ": a step is running; call fetchResults() first");
   }
 
@@ -135,7 +138,7 @@ class SceneImpl {
     std::vector<ShapeState> before;
     if (energy)
       for (size_t i = 0; i < shapes.size(); ++i) before.push_back(shapes[i].state);
-    pending = worker.submit([this, dt, n, energy, before = std::move(before)] {
+    worker.submit([this, dt, n, energy, before = std::move(before)] {
       // a failed advance is undone: what it changes is kept first (the particles' copy
       // costs a pass over their memory, see the backends' saveState)
       const Rollback rollback = keep();
@@ -160,6 +163,7 @@ class SceneImpl {
         }
       }
     });
+    stepping = true;
   }
 
   /// Whether a diverged advance of n substeps, halved `halvings` times so far, is taken
@@ -249,9 +253,9 @@ class SceneImpl {
   }
 
   StepReport fetch() {
-    if (!pending.valid()) return {};
-    auto f = std::move(pending);
-    return f.get();
+    if (!stepping) return {};
+    stepping = false;
+    return worker.wait();
   }
 
   SceneSettings settings;
@@ -265,7 +269,7 @@ class SceneImpl {
   float maxParticleSpeed = 0.f;
   double time = 0.0;
   EnergyAccount account;
-  std::future<StepReport> pending;
+  bool stepping = false;  ///< an advance was submitted and its result not yet fetched
   StepWorker worker;  // after everything its jobs touch, so it stops first
 };
 

@@ -15,29 +15,55 @@ StepWorker::~StepWorker() {
   thread_.join();
 }
 
-std::future<StepReport> StepWorker::submit(std::function<StepReport()> job) {
-  std::packaged_task<StepReport()> task(std::move(job));
-  std::future<StepReport> result = task.get_future();
+void StepWorker::submit(std::function<StepReport()> job) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    task_ = std::move(task);
-    pending_ = true;
+    job_ = std::move(job);
+    queued_ = true;
+    done_ = false;
   }
   wake_.notify_all();
-  return result;
+}
+
+StepReport StepWorker::wait() {
+  std::exception_ptr error;
+  StepReport report;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    finished_.wait(lock, [this] { return done_; });
+    done_ = false;
+    error = std::move(error_);
+    report = std::move(report_);
+  }
+  if (error) std::rethrow_exception(std::move(error));
+  return report;
 }
 
 void StepWorker::loop() {
   for (;;) {
-    std::packaged_task<StepReport()> task;
+    std::function<StepReport()> job;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return stop_ || pending_; });
-      if (!pending_) return;
-      task = std::move(task_);
-      pending_ = false;
+      wake_.wait(lock, [this] { return stop_ || queued_; });
+      if (!queued_) return;
+      job = std::move(job_);
+      queued_ = false;
     }
-    task();  // an exception is stored in the future, rethrown by fetchResults()
+    StepReport report;
+    std::exception_ptr error;
+    try {
+      report = job();
+    } catch (...) {
+      error = std::current_exception();  // rethrown by wait(), i.e. fetchResults()
+    }
+    job = nullptr;  // its captures go here, before the caller can see the result
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      report_ = std::move(report);
+      error_ = std::move(error);  // the worker keeps no reference to it
+      done_ = true;
+    }
+    finished_.notify_all();
   }
 }
 

@@ -10,7 +10,13 @@
 // never flush to the same node and run in parallel. Each node then receives its
 // contributions in a fixed order whatever the thread count, which makes the CPU path
 // bit-for-bit deterministic.
+#if defined(_OPENMP)
 #include <omp.h>
+#else
+// Built without OpenMP (MPM_WITH_OPENMP=OFF, the ThreadSanitizer build): the pragmas are
+// ignored and every loop runs on the calling thread.
+inline int omp_get_max_threads() { return 1; }
+#endif
 
 #include <algorithm>
 #include <cstdlib>
