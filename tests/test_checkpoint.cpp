@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -273,6 +274,42 @@ TEST_P(SceneCheckpoint, RefusedCheckpointsChangeNothing) {
   Scene loads(twoThreads);
   EXPECT_NO_THROW(loads.loadFromMemory(good));
   EXPECT_EQ(loads.time(), 3 * (double)kFrame);
+}
+
+// On the CUDA backend the grid sums with float atomics, in no fixed order: a restored run
+// follows the uninterrupted one within rounding, not bit for bit. A CUDA checkpoint also
+// loads into a CPU scene (the backend is an execution setting).
+TEST_P(SceneCheckpoint, CudaRestoredRunFollowsWithinRounding) {
+  if (!cudaDeviceAvailable()) GTEST_SKIP() << "no CUDA device: the CUDA checkpoint run is skipped";
+  auto cudaScene = [&] {
+    auto t = std::make_unique<TestScene>(GetParam());
+    SceneSettings s = t->scene.settings();
+    s.backend = Backend::Cuda;
+    t->scene = Scene(s);
+    return t;
+  };
+  auto original = cudaScene();
+  TestScene reference(GetParam());  // the objects and shapes, built in a CPU scene
+  original->scene.loadFromMemory(reference.scene.saveToMemory());  // and moved to the GPU
+  original->block = reference.block;
+  original->ball = reference.ball;
+  run(*original, 3);
+  const std::vector<uint8_t> saved = original->scene.saveToMemory();
+  run(*original, 6);
+  const Snapshot uninterrupted = snapshot(*original);
+  auto restored = cudaScene();
+  restored->scene.loadFromMemory(saved);
+  restored->block = reference.block;
+  restored->ball = reference.ball;
+  run(*restored, 6);
+  const Snapshot again = snapshot(*restored);
+  ASSERT_EQ(again.x.size(), uninterrupted.x.size());
+  float worst = 0;
+  for (size_t i = 0; i < again.x.size(); ++i) worst = std::fmax(worst, norm(again.x[i] - uninterrupted.x[i]));
+  std::printf("%s on CUDA: restored run within %.3g m of the uninterrupted one\n", test::solverName(GetParam()).c_str(),
+              worst);
+  EXPECT_LT(worst, 1e-5f);
+  EXPECT_NO_THROW(TestScene(GetParam()).scene.loadFromMemory(saved)) << "a CUDA checkpoint loads on the CPU";
 }
 
 INSTANTIATE_TEST_SUITE_P(EverySolver, SceneCheckpoint, test::everySolver(), test::solverParamName());
