@@ -96,6 +96,7 @@ class Reader {
  private:
   void take(void* out, size_t n, const char* what) {
     if (n > size_ - at_) truncated(n, what);
+    if (n == 0) return;  // an empty array's data() may be null, which memcpy must not get
     std::memcpy(out, payload_ + at_, n);
     at_ += n;
   }
