@@ -221,10 +221,18 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
   }
   const float reach = (b.mode == kContactBonded ? kGluedReach : kRestingReach) * touchingCell;
   if (phi >= fmaxf(fmaxf(b.band, part.band), reach)) return false;
-  const Vec3f vNew = contactVelocity(v, b.velocityAt(x), n, b);
+  // The node meets the body at c, the surface point along the contact normal: the rigid
+  // velocity and the lever of the momentum exchanged are taken there, not at the node. A
+  // round part's normals pass through its axis, so frictionless contact cannot turn it about
+  // it. With the node's own position as the lever, nodes in a thin capsule's band (up to
+  // 0.75 dx off its axis, normals seen from x-bar) spun capsules resting on tissue about
+  // their axis: +-5 rad/s for a 2 g rigid capsule of radius 0.2 dx, +4 to +8 rad/s for a
+  // chain link on PB-MPM, which rolled it off and tipped it into the tissue.
+  const Vec3f c = x - phi * n;
+  const Vec3f vNew = contactVelocity(v, b.velocityAt(c), n, b);
   const Vec3f dp = mass * (v - vNew);
   if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) return false;
-  addContact(sums, dp, x - b.com, mass);
+  addContact(sums, dp, c - b.com, mass);
   if (pass == 1) v = vNew;
   return true;
 }
