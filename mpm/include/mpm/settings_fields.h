@@ -55,15 +55,6 @@ void forEachField(S& s, Visitor&& v) {
   v("SceneSettings.cpuThreads", s.cpuThreads, E);
 }
 
-/// The same for a Material (all model fields).
-template <class Mat, class Visitor, std::enable_if_t<std::is_same_v<std::remove_const_t<Mat>, Material>, int> = 0>
-void forEachField(Mat& m, Visitor&& v) {
-  constexpr FieldRole M = FieldRole::Model;
-  v("Material.model", m.model, M);
-  v("Material.youngsModulus", m.youngsModulus, M);
-  v("Material.poissonRatio", m.poissonRatio, M);
-  v("Material.density", m.density, M);
-}
 
 // A field added to a settings struct without its line above changes the struct's size
 // (unless it fits in padding): these fail, pointing here.
@@ -80,7 +71,6 @@ struct Scene {
   Backend backend;
   int cpuThreads;
 };
-struct Mat { MaterialModel model; float youngsModulus, poissonRatio, density; };
 }  // namespace settings_layout
 static_assert(sizeof(DomainSettings) == sizeof(settings_layout::Domain), "DomainSettings changed: update forEachField");
 static_assert(sizeof(StandardMpmSettings) == sizeof(float), "StandardMpmSettings changed: update forEachField");
@@ -90,6 +80,5 @@ static_assert(sizeof(SubstepPolicy) == sizeof(settings_layout::Substeps), "Subst
 static_assert(sizeof(EnergyCheck) == sizeof(settings_layout::Energy), "EnergyCheck changed: update forEachField");
 static_assert(sizeof(Recovery) == sizeof(settings_layout::Recover), "Recovery changed: update forEachField");
 static_assert(sizeof(SceneSettings) == sizeof(settings_layout::Scene), "SceneSettings changed: update forEachField");
-static_assert(sizeof(Material) == sizeof(settings_layout::Mat), "Material changed: update forEachField");
 
 }  // namespace mpm
