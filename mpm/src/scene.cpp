@@ -100,7 +100,7 @@ class SceneImpl {
 
   void uploadMaterials() { backend->setMaterials(materialTable(objects)); }
 
-  SubstepBounds substepBounds() { return {settings, objects, shapes, maxParticleSpeed, *backend}; }
+  SubstepBounds substepBounds() { return {settings, objects, shapes, slicers, maxParticleSpeed, *backend}; }
 
   StepReport run(float dt, int substeps) {
     StepReport report;
@@ -129,11 +129,20 @@ class SceneImpl {
     shapes.remove(id);  // drops its mesh
   }
 
+  SlicerId addSlicer(const QuadSlicerDesc& d) {
+    requireIdle("addSlicer");
+    if (solverTraits(settings.solver).meshless)
+      throw InvalidArgument("SceneSettings.solver", "Mtled",
+                            "cannot cut: slicers need a grid solver (MlsMpm, StandardMpm or PbMpm)");
+    validateSlicerDesc(d);
+    return slicers.add({d, {d.pose, d.linearVelocity, d.angularVelocity}, {}});
+  }
+
   void advance(float dt) {
     requireIdle("advance");
     validate::positive("Scene::advance dt", dt);
     const int n = substepBounds().substepCount(dt);
-    bodyOfShape = uploadShapes(shapes, settings, *backend);
+    bodies = uploadShapes(shapes, slicers, settings, *backend);
     const bool energy = settings.energyCheck.enabled;
     std::vector<ShapeState> before;
     if (energy)
@@ -145,10 +154,10 @@ class SceneImpl {
       backend->saveState();
       for (int halvings = 0;; ++halvings) {
         try {
-          if (halvings > 0) bodyOfShape = uploadShapes(shapes, settings, *backend);  // moved by the failed attempt
+          if (halvings > 0) bodies = uploadShapes(shapes, slicers, settings, *backend);  // moved by the failed attempt
           if (energy && !account.started) account.start(*backend, settings, objects);
           StepReport r = run(dt, n << halvings);
-          downloadShapes(shapes, bodyOfShape, *backend);
+          downloadShapes(shapes, slicers, bodies, *backend);
           if (energy) r.energy = account.checkAdvance(*backend, settings, objects, shapes, before, time);
           r.halvings = halvings;
           return r;
@@ -178,11 +187,12 @@ class SceneImpl {
     double time;
     float maxParticleSpeed;
     EnergyAccount account;
-    std::vector<std::pair<ShapeState, ShapeImpulse>> shapes;
+    std::vector<std::pair<ShapeState, ShapeImpulse>> shapes, slicers;
   };
   Rollback keep() const {
-    Rollback r{time, maxParticleSpeed, account, {}};
+    Rollback r{time, maxParticleSpeed, account, {}, {}};
     for (size_t i = 0; i < shapes.size(); ++i) r.shapes.push_back({shapes[i].state, shapes[i].lastImpulse});
+    for (size_t i = 0; i < slicers.size(); ++i) r.slicers.push_back({slicers[i].state, slicers[i].lastImpulse});
     return r;
   }
   void restore(const Rollback& r) {
@@ -190,6 +200,7 @@ class SceneImpl {
     maxParticleSpeed = r.maxParticleSpeed;
     account = r.account;
     for (size_t i = 0; i < shapes.size(); ++i) std::tie(shapes[i].state, shapes[i].lastImpulse) = r.shapes[i];
+    for (size_t i = 0; i < slicers.size(); ++i) std::tie(slicers[i].state, slicers[i].lastImpulse) = r.slicers[i];
   }
 
   /// The whole scene as a checkpoint (state/scene_checkpoint.h), with the caller's bytes.
@@ -246,7 +257,7 @@ class SceneImpl {
     account = l.account;
     objects = std::move(l.objects);
     shapes = std::move(l.shapes);
-    bodyOfShape.clear();
+    bodies = BodyMap{};
     uploadMaterials();
     backend->importState(l.backend);
     return std::move(l.attachment);
@@ -265,7 +276,8 @@ class SceneImpl {
   // the handle tables: a new kind of handle adds its table here
   ObjectTable objects{"ParticleObjectId", "particle object"};
   ShapeTable shapes{"ShapeId", "shape"};
-  std::vector<int> bodyOfShape;  ///< shape slot -> body index in the backend, or -1
+  SlicerTable slicers{"SlicerId", "slicer"};
+  BodyMap bodies;  ///< where the shapes and slicers are among the backend's bodies
   float maxParticleSpeed = 0.f;
   double time = 0.0;
   EnergyAccount account;
@@ -299,6 +311,27 @@ ShapeState Scene::shapeState(ShapeId id) const {
 ShapeImpulse Scene::shapeImpulse(ShapeId id) const {
   impl_->requireIdle("shapeImpulse");
   return impl_->shapes.lookup(id, "shapeImpulse").lastImpulse;
+}
+SlicerId Scene::addSlicer(const QuadSlicerDesc& d) { return impl_->addSlicer(d); }
+void Scene::removeSlicer(SlicerId id) {
+  impl_->requireIdle("removeSlicer");
+  impl_->slicers.lookup(id, "removeSlicer");
+  impl_->slicers.remove(id);
+}
+bool Scene::isValid(SlicerId id) const { return impl_->slicers.isValid(id); }
+void Scene::setSlicerState(SlicerId id, const ShapeState& s) {
+  impl_->requireIdle("setSlicerState");
+  SlicerRecord& r = impl_->slicers.lookup(id, "setSlicerState");
+  validateShapeState(s);
+  r.state = s;
+}
+ShapeState Scene::slicerState(SlicerId id) const {
+  impl_->requireIdle("slicerState");
+  return impl_->slicers.lookup(id, "slicerState").state;
+}
+ShapeImpulse Scene::slicerImpulse(SlicerId id) const {
+  impl_->requireIdle("slicerImpulse");
+  return impl_->slicers.lookup(id, "slicerImpulse").lastImpulse;
 }
 StepReport Scene::step(float dt) {
   advance(dt);

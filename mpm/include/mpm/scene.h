@@ -15,6 +15,7 @@
 #include "mpm/error.h"
 #include "mpm/settings.h"
 #include "mpm/shapes.h"
+#include "mpm/slicers.h"
 
 namespace mpm {
 
@@ -99,6 +100,23 @@ class Scene {
   ShapeState shapeState(ShapeId id) const;
   /// Momentum the grid gave the shape during the last advance.
   ShapeImpulse shapeImpulse(ShapeId id) const;
+
+  /// Adds a blade that cuts the material it passes (mpm/slicers.h), moved like a
+  /// kinematic shape. Cuts stay in the material after the slicer has gone (they are part of
+  /// the particle state and of checkpoints). Grid solvers only: with SolverType::Mtled it
+  /// throws InvalidArgument on SceneSettings.solver; a bad field throws naming it.
+  SlicerId addSlicer(const QuadSlicerDesc& desc);
+  /// Removes a slicer; the cuts it made stay.
+  void removeSlicer(SlicerId id);
+  bool isValid(SlicerId id) const;
+  /// Sets a slicer's pose and velocities before an advance (within it, it moves on with
+  /// its velocity); the velocity is that of its frame's origin.
+  void setSlicerState(SlicerId id, const ShapeState& state);
+  /// Pose and velocities after the last advance.
+  ShapeState slicerState(SlicerId id) const;
+  /// Momentum the material gave the slicer during the last advance (faces and spine),
+  /// about its frame's origin.
+  ShapeImpulse slicerImpulse(SlicerId id) const;
 
   /// Starts advancing the scene by `dt` seconds (> 0) on a worker thread. The scene must
   /// not be changed until fetchResults() returns. Throws InvalidArgument, changing

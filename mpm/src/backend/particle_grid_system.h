@@ -19,7 +19,7 @@
 #include "backend/exec_array.h"
 #include "backend/shape_set.h"
 #include "backend/sim_backend.h"
-#include "solvers/transfer.h"
+#include "solvers/cut_transfer.h"
 
 namespace mpm {
 
@@ -37,6 +37,18 @@ struct Gather {
   const T* in;
   const uint32_t* order;
   MPM_HD void operator()(size_t i) const { out[i] = in[order[i]]; }
+};
+
+/// Records on every particle beside a blade the cut it lies in (solvers/cut_transfer.h).
+struct RecordCuts {
+  ParticleView P;
+  const PartView* parts;
+  int nParts;
+  float reach;
+  MPM_HD void operator()(size_t i) const {
+    for (int b = 0; b < nParts; ++b)
+      if (parts[b].type == kPartBlade && parts[b].mayTouch(P.x[i], P.x[i])) recordCut(P.cut[i], P.x[i], parts[b], reach);
+  }
 };
 
 }  // namespace kernels
@@ -118,6 +130,15 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void importState(const BackendState& in) override {
     clear();
     append(in.particles);
+    everCut_ = false;
+    for (const CutPlane& c : in.particles.cut) everCut_ = everCut_ || isCut(c);
+  }
+
+  void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
+    ShapeBackend<Exec>::setShapes(bodies, parts);
+    blades_ = false;
+    for (const PartView& p : parts) blades_ = blades_ || p.type == kPartBlade;
+    everCut_ = everCut_ || blades_;
   }
 
   void setMaterials(const std::vector<MaterialParams>& m) override {
@@ -170,6 +191,20 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   bool hasShapes() const { return shapesInReach_; }
   const PartView* parts() const { return shapes_.parts(); }
   int partCount() const { return shapesInReach_ ? shapes_.partCount() : 0; }
+
+  /// Whether some particle may carry a cut: a blade is in the scene, or was since the
+  /// particles were last replaced. Until then the transfers do not read the cut field.
+  bool cuts() const { return everCut_; }
+  /// Records the cuts of the blades in reach on the particles beside them (before P2G,
+  /// after placeShapes). Nothing without a blade in reach.
+  void recordCuts() {
+    if (!blades_ || partCount() == 0) return;
+    const auto t0 = Clock::now();
+    // a particle farther from the blade's plane than its stencil's reach (1.5 dx) has no
+    // node across it
+    exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), 1.5f * geo_.dx});
+    timings.contact += seconds(t0);
+  }
 
   /// Bins the particles by grid block and activates the blocks they reach.
   void binParticles() {
@@ -284,6 +319,8 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   size_t count_ = 0;
   WallParams walls_;  ///< of the current substep
   bool shapesInReach_ = false;  ///< of the current substep (placeShapes)
+  bool blades_ = false;          ///< a slicer's blade is among the parts
+  bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveState)
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER

@@ -11,6 +11,14 @@
 
 namespace mpm {
 
+/// Where a blade has cut past a particle (solvers/cut_transfer.h): the blade's plane as the
+/// particle sees it, carried with the material. Grid nodes across it are not the
+/// particle's. All zero: never cut.
+struct CutPlane {
+  Vec3f normal;        ///< unit, from the plane toward the particle's side
+  float offset = 0.f;  ///< the particle's distance from the plane [m]
+};
+
 // X(type, name): one array per field, one element per particle.
 #define MPM_PARTICLE_MODEL_FIELDS(X)                                        \
   X(float, mass)       /* [kg] */                                            \
@@ -22,7 +30,8 @@ namespace mpm {
   X(Vec3f, v)          /* velocity [m/s] */                  \
   X(Mat3f, C)          /* APIC affine velocity field [1/s] */ \
   X(Mat3f, F)          /* deformation gradient */            \
-  X(float, touch)      /* 1 if it ended its last substep touching a shape */
+  X(float, touch)      /* 1 if it ended its last substep touching a shape */ \
+  X(CutPlane, cut)     /* the cut it lies beside, if a blade has passed it */
 #define MPM_PARTICLE_FIELDS(X) MPM_PARTICLE_STATE_FIELDS(X) MPM_PARTICLE_MODEL_FIELDS(X)
 
 /// Non-owning view of the particle arrays, passed to kernels by value.

@@ -160,6 +160,7 @@ SeededObject seedParticleObject(const ParticleObjectDesc& d, const ObjectTable& 
         add.object.push_back(slot);
         add.local.push_back((uint32_t)add.x.size() - 1);
         add.touch.push_back(0.f);
+        add.cut.push_back(CutPlane{});
       }
   if (add.size() == 0)
     throw InvalidArgument(d.primitive == PrimitiveType::Mesh ? "ParticleObjectDesc.mesh" : "ParticleObjectDesc.radius",

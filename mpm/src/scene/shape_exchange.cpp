@@ -33,15 +33,18 @@ bool moved(const BodyView& b) {
 
 }  // namespace
 
-std::vector<int> uploadShapes(const ShapeTable& shapes, const SceneSettings& settings, SimBackend& backend) {
+BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const SceneSettings& settings,
+                     SimBackend& backend) {
   std::vector<BodyView> bodies;
   std::vector<PartView> parts;
   std::vector<const SignedDistanceGrid*> meshes;
-  std::vector<int> bodyOfShape(shapes.size(), -1);
+  BodyMap map;
+  map.shapes.assign(shapes.size(), -1);
+  map.slicers.assign(slicers.size(), -1);
   for (size_t i = 0; i < shapes.size(); ++i) {
     if (!shapes.alive(i)) continue;
     const int b = (int)bodies.size();
-    bodyOfShape[i] = b;
+    map.shapes[i] = b;
     bodies.push_back(makeBody(shapes[i].desc, shapes[i].state, bondedBand(settings)));
     appendParts(shapes[i].desc, shapes[i].state, b, thinPartHalfThickness(settings), domainCentre(settings),
                 [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
@@ -49,15 +52,40 @@ std::vector<int> uploadShapes(const ShapeTable& shapes, const SceneSettings& set
       return backend.meshValues(g);
     }, parts);
   }
+  for (size_t i = 0; i < slicers.size(); ++i) {
+    if (!slicers.alive(i)) continue;
+    map.slicers[i] = (int)bodies.size();
+    // the faces push the material out of a band of half a cell (the gap a cut opens)
+    appendSlicer(slicers[i].desc, slicers[i].state, 0.5f * settings.dx, domainCentre(settings), bodies, parts);
+  }
   backend.releaseMeshesExcept(meshes);
   backend.setShapes(bodies, parts);
-  return bodyOfShape;
+  return map;
 }
 
-void downloadShapes(ShapeTable& shapes, const std::vector<int>& bodyOfShape, SimBackend& backend) {
+namespace {
+ShapeImpulse impulseOf(const ContactSums& c) {
+  return {{c.impulse[0], c.impulse[1], c.impulse[2]}, {c.angular[0], c.angular[1], c.angular[2]}};
+}
+}  // namespace
+
+void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, const BodyMap& map, SimBackend& backend) {
   std::vector<BodyView> bodies;
   backend.readBodies(bodies);
   const std::vector<ContactSums> impulses = backend.takeImpulses();
+  for (size_t i = 0; i < slicers.size(); ++i) {
+    const int b = i < map.slicers.size() ? map.slicers[i] : -1;
+    if (!slicers.alive(i) || b < 0) continue;
+    // the faces' and the spine's, about the slicer's frame origin (both bodies' centre)
+    const ShapeImpulse faces = impulseOf(impulses[b]), spine = impulseOf(impulses[b + 1]);
+    slicers[i].lastImpulse = {faces.linear + spine.linear, faces.angular + spine.angular};
+    // kinematic: it moved on with its velocity within the advance
+    if (moved(bodies[b])) {
+      slicers[i].state.pose.position = bodies[b].shapeOrigin;
+      slicers[i].state.pose.rotation = quaternionFromMatrix(bodies[b].rotation);
+    }
+  }
+  const std::vector<int>& bodyOfShape = map.shapes;
   for (size_t i = 0; i < shapes.size(); ++i) {
     const int b = i < bodyOfShape.size() ? bodyOfShape[i] : -1;
     if (!shapes.alive(i) || b < 0) continue;
@@ -70,8 +98,7 @@ void downloadShapes(ShapeTable& shapes, const std::vector<int>& bodyOfShape, Sim
     }
     st.linearVelocity = bodies[b].linearVelocity;
     st.angularVelocity = bodies[b].angularVelocity;
-    const ContactSums& c = impulses[b];
-    shapes[i].lastImpulse = {{c.impulse[0], c.impulse[1], c.impulse[2]}, {c.angular[0], c.angular[1], c.angular[2]}};
+    shapes[i].lastImpulse = impulseOf(impulses[b]);
   }
 }
 

@@ -16,12 +16,27 @@ struct ShapeRecord {
 };
 using ShapeTable = SlotTable<ShapeRecord, ShapeId>;
 
-/// Hands the live shapes to the backend (bodies in shape-slot order, then parts); returns
-/// the body index of each shape slot in the backend, or -1.
-std::vector<int> uploadShapes(const ShapeTable& shapes, const SceneSettings& settings, SimBackend& backend);
+/// A slicer as the scene keeps it (kinematic: its state is the caller's).
+struct SlicerRecord {
+  QuadSlicerDesc desc;
+  ShapeState state;
+  ShapeImpulse lastImpulse;
+};
+using SlicerTable = SlotTable<SlicerRecord, SlicerId>;
 
-/// Reads the shapes' motion and impulses back after an advance (`bodyOfShape` from
-/// uploadShapes).
-void downloadShapes(ShapeTable& shapes, const std::vector<int>& bodyOfShape, SimBackend& backend);
+/// Where the scene's shapes and slicers are among the backend's bodies (-1: not there).
+/// A slicer is two bodies, its faces at the index given and its spine after them.
+struct BodyMap {
+  std::vector<int> shapes, slicers;
+};
+
+/// Hands the live shapes, then the live slicers, to the backend (bodies in slot order,
+/// then parts); returns where each slot's bodies are.
+BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const SceneSettings& settings,
+                     SimBackend& backend);
+
+/// Reads the shapes' motion and the shapes' and slicers' impulses back after an advance
+/// (`map` from uploadShapes).
+void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, const BodyMap& map, SimBackend& backend);
 
 }  // namespace mpm

@@ -19,6 +19,8 @@ float SubstepBounds::maxSubstep() const {
   float shapeSpeed = 0.f;
   for (size_t i = 0; i < shapes.size(); ++i)
     if (shapes.alive(i)) shapeSpeed = std::max(shapeSpeed, norm(shapes[i].state.linearVelocity));
+  for (size_t i = 0; i < slicers.size(); ++i)
+    if (slicers.alive(i)) shapeSpeed = std::max(shapeSpeed, norm(slicers[i].state.linearVelocity));
   const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
   float dtMax = backend.stableTimeStep();
   if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflNumber * settings.dx / speed);

@@ -14,6 +14,7 @@ struct SubstepBounds {
   const SceneSettings& settings;
   const ObjectTable& objects;
   const ShapeTable& shapes;
+  const SlicerTable& slicers;
   float maxParticleSpeed;  ///< fastest particle after the last advance, or as seeded [m/s]
   SimBackend& backend;     ///< not const: stableTimeStep() may finish a deferred setup
 

@@ -50,6 +50,19 @@ MPM_HD float sdfBoxFaces(Vec3f p, Vec3f lo, Vec3f hi, Vec3f& n) {
 }
 
 /// Box of half-extents h about the origin.
+/// A blade's faces (a slicer, mpm/slicers.h): the slab between the planes z = lo.z and
+/// z = hi.z over the rectangle [lo.x, hi.x] x [lo.y, hi.y], seen from the side of its
+/// mid-plane that p is on: |z - mid| - half-thickness, the normal toward p's side. Off the
+/// rectangle there is no blade to push on (kNoSurface): its edge and sides cut material,
+/// they do not push it ahead of them.
+constexpr float kNoSurface = 1e30f;
+MPM_HD float sdfBladeFaces(Vec3f p, Vec3f lo, Vec3f hi, Vec3f& n) {
+  const float z = p.z - 0.5f * (lo.z + hi.z);
+  n = Vec3f{0.f, 0.f, z >= 0.f ? 1.f : -1.f};
+  if (p.x < lo.x || p.x > hi.x || p.y < lo.y || p.y > hi.y) return kNoSurface;
+  return fabsf(z) - 0.5f * (hi.z - lo.z);
+}
+
 MPM_HD float sdfBox(Vec3f p, Vec3f h, Vec3f& n) { return sdfBoxFaces(p, -h, h, n); }
 
 /// Capsule: the points within r of the segment [lo, hi] on `axis`.

@@ -253,4 +253,49 @@ PartView makePart(const Geometry& g, const ShapeDesc& desc, const ShapeState& st
   return p;
 }
 
+void validateSlicerDesc(const QuadSlicerDesc& d) {
+  validate::positive("QuadSlicerDesc.halfLength", d.halfLength);
+  validate::positive("QuadSlicerDesc.width", d.width);
+  validate::finite("QuadSlicerDesc.spineRadius", d.spineRadius);
+  if (d.spineRadius < 0.f || d.spineRadius >= d.width)
+    throw InvalidArgument("QuadSlicerDesc.spineRadius", validate::show(d.spineRadius),
+                          "must lie in [0, width) (0: as thick as the faces' band)");
+  validate::finite("QuadSlicerDesc.halfThickness", d.halfThickness);
+  if (d.halfThickness < 0.f)
+    throw InvalidArgument("QuadSlicerDesc.halfThickness", validate::show(d.halfThickness), "must be >= 0");
+  validate::finite("QuadSlicerDesc.friction", d.friction);
+  if (d.friction < 0.f) throw InvalidArgument("QuadSlicerDesc.friction", validate::show(d.friction), "must be >= 0");
+  validateShapeState({d.pose, d.linearVelocity, d.angularVelocity});
+}
+
+void appendSlicer(const QuadSlicerDesc& d, const ShapeState& state, float faceBand, Vec3f near,
+                  std::vector<BodyView>& bodies, std::vector<PartView>& parts) {
+  const float half = d.halfThickness + faceBand;
+  const float spine = d.spineRadius > 0.f ? d.spineRadius : half;
+  // the faces: a box from the edge (y = 0) to the spine's axis, `half` thick each side
+  ShapeDesc faces;
+  faces.parts.push_back(Geometry::box({d.halfLength, 0.5f * d.width, half}));
+  faces.parts[0].localPose.position = {0.f, 0.5f * d.width, 0.f};
+  faces.contact.friction = d.friction;
+  const int facesBody = (int)bodies.size();
+  bodies.push_back(makeBody(faces, state, 0.f));
+  PartView blade = makePart(faces.parts[0], faces, state, facesBody, 0.f, near);
+  blade.type = kPartBlade;
+  blade.radius = spine;  // material within the spine's radius of its axis is not cut
+  parts.push_back(blade);
+  // the spine: blunt, sticky while pressed on (it pushes tissue, never cuts it)
+  ShapeDesc back;
+  Geometry bar;
+  bar.type = GeometryType::Capsule;
+  bar.axis = 0;
+  bar.radius = spine;
+  bar.halfHeight = d.halfLength;
+  bar.localPose.position = {0.f, d.width, 0.f};
+  back.parts.push_back(bar);
+  back.contact.mode = ContactMode::Sticky;
+  const int spineBody = (int)bodies.size();
+  bodies.push_back(makeBody(back, state, 0.f));
+  parts.push_back(makePart(bar, back, state, spineBody, 0.f, near));
+}
+
 }  // namespace mpm

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "mpm/shapes.h"
+#include "mpm/slicers.h"
 #include "shapes/shape_kernels.h"
 
 namespace mpm {
@@ -27,6 +28,14 @@ BodyView makeBody(const ShapeDesc& desc, const ShapeState& state, float bondedBa
 template <class MeshValues>
 void appendParts(const ShapeDesc& desc, const ShapeState& state, int bodyIndex, float minHalfThickness, Vec3f near,
                  MeshValues meshValues, std::vector<PartView>& out);
+
+/// Throws InvalidArgument naming the field for any invalid value of a slicer.
+void validateSlicerDesc(const QuadSlicerDesc& desc);
+/// A slicer as two kinematic bodies, appended to `bodies` and `parts`: its blade's faces
+/// (frictional, a kPartBlade grown by `faceBand` [m] on each face) and its spine (a
+/// sticky capsule). Anchored near `near` as makePart anchors.
+void appendSlicer(const QuadSlicerDesc& desc, const ShapeState& state, float faceBand, Vec3f near,
+                  std::vector<BodyView>& bodies, std::vector<PartView>& parts);
 
 /// The part without its mesh pointer (kept non-template for the .cpp).
 PartView makePart(const Geometry& g, const ShapeDesc& desc, const ShapeState& state, int bodyIndex,

@@ -8,7 +8,9 @@
 namespace mpm {
 
 enum : int { kContactFrictional = 0, kContactSticky = 1, kContactBonded = 2 };
-enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh };
+/// kPartBlade: a slicer's faces (sdfBladeFaces); its box is faceLower/faceUpper like a
+/// Box's, with the edge at faceLower.y and `radius` the spine's (solvers/cut_transfer.h).
+enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh, kPartBlade };
 
 /// Rigid motion and contact model of one shape.
 struct BodyView {
@@ -95,6 +97,7 @@ struct PartView {
         nl = len > 1e-12f ? (1.f / len) * nl : Vec3f{0.f, 1.f, 0.f};
         break;
       }
+      case kPartBlade: d = sdfBladeFaces(p, faceLower, faceUpper, nl); break;
       case kPartBox:
       default: d = sdfBoxFaces(p, faceLower, faceUpper, nl); break;
     }

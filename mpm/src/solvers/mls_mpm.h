@@ -3,7 +3,7 @@
 // and the stress force in one affine matrix, A = m C - dt V0 M^-1 tau (tau = P F^T, the
 // Kirchhoff stress); G2P rebuilds v and C from the grid and advances F <- (I + dt C) F.
 #include "core/constitutive.h"
-#include "solvers/transfer.h"
+#include "solvers/cut_transfer.h"
 
 namespace mpm {
 
@@ -21,12 +21,19 @@ struct MlsMpm {
     GridGeometry geo;
     const MaterialParams* materials;
     float dt;
+    bool cuts;  ///< some particle may be cut (ParticleGridSystem::cuts)
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
+      if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, M^-1 their own
+        const SidedStencil side(st, geo.dx, P.cut[p]);
+        const Mat3f affine = m * P.C[p] - (dt * P.volume0[p]) * (tau * side.Dinv);
+        side.scatter<kCentroid>(st, m, m * P.v[p], affine, P.x[p], P.touch[p], nodes);
+        return;
+      }
       const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * apicInverseInertia(geo)) * tau;
       apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], affine, P.x[p], P.touch[p], nodes);
     }
@@ -39,17 +46,23 @@ struct MlsMpm {
     float dt;
     const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
     int nParts = 0;
+    bool cuts = false;  ///< some particle may be cut (withParts)
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
-      apicGather(st, geo, nodes, v, C);
+      const bool cut = cuts && isCut(P.cut[p]);
+      if (cut)
+        SidedStencil(st, geo.dx, P.cut[p]).gather(st, nodes, P.v[p], v, C);
+      else
+        apicGather(st, geo, nodes, v, C);
       P.v[p] = v;
       P.C[p] = C;
       P.x[p] += dt * v;
       P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
+      if (cut) advectCut(P.cut[p], C, dt);
       return finishParticle(p, P, geo, parts, nParts);
     }
   };
@@ -58,7 +71,7 @@ struct MlsMpm {
   static void substep(System& s, const SubstepParams& p) {
     const ParticleView P = s.particles();
     explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt}, P, s.geometry(),
-                                     s.materials(), p.dt);
+                                     s.materials(), p.dt, s.cuts());
   }
 };
 

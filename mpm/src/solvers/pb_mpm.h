@@ -19,7 +19,7 @@
 // gives a shape is summed, so the exchange stays exact). The material's E and nu play no
 // part: stiffness comes from the iterations (more iterations, stiffer), as in PBD.
 #include "core/polar.h"
-#include "solvers/transfer.h"
+#include "solvers/cut_transfer.h"
 
 namespace mpm {
 
@@ -39,6 +39,7 @@ struct PbMpm {
     float dt;
     float relaxation;
     float rigidity;
+    bool cuts;  ///< some particle may be cut (ParticleGridSystem::cuts)
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
@@ -52,7 +53,10 @@ struct PbMpm {
       const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
       const Mat3f Cc = C + relaxation * ((1.f / dt) * (Fc * inverse(F) - I) - C);
       const float m = P.mass[p];
-      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], P.touch[p], nodes);
+      if (cuts && isCut(P.cut[p]))
+        SidedStencil(st, geo.dx, P.cut[p]).scatter<kCentroid>(st, m, m * P.v[p], m * Cc, P.x[p], P.touch[p], nodes);
+      else
+        apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], P.touch[p], nodes);
     }
   };
 
@@ -64,18 +68,24 @@ struct PbMpm {
     bool integrate;  ///< the last cycle: also move the particle and advance F
     const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
     int nParts = 0;
+    bool cuts = false;  ///< some particle may be cut (withParts)
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
-      apicGather(st, geo, nodes, v, C);
+      const bool cut = cuts && isCut(P.cut[p]);
+      if (cut)
+        SidedStencil(st, geo.dx, P.cut[p]).gather(st, nodes, P.v[p], v, C);
+      else
+        apicGather(st, geo, nodes, v, C);
       P.v[p] = v;
       P.C[p] = C;
       if (integrate) {
         P.x[p] += dt * v;
         P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
+        if (cut) advectCut(P.cut[p], C, dt);
         return finishParticle(p, P, geo, parts, nParts);
       }
       StepCheck c;
@@ -89,15 +99,16 @@ struct PbMpm {
   static void substep(System& s, const SubstepParams& p) {
     s.binParticles();  // positions stay put until the last cycle
     s.placeShapes();
+    s.recordCuts();
     const ParticleView P = s.particles();
     const int n = p.solver.iterations;
     for (int it = 0; it < n; ++it) {
       s.clearGrid();
-      scatterParticles<P2G>(s, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity);
+      scatterParticles<P2G>(s, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, s.cuts());
       const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
       s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
       s.exchangeContact(p.dt, it == 0);
-      s.gather(G2P{P, s.geometry(), p.dt, it == n - 1, s.parts(), s.partCount()});
+      s.gather(withParts(s, G2P{P, s.geometry(), p.dt, it == n - 1}));
     }
     s.moveShapes(p.dt);
   }

@@ -8,7 +8,7 @@
 // (eq. 5), F <- (I + dt L) F (eq. 6), v = a (v + sum w (v_i - v_i,old)) + (1 - a) v_PIC.
 // No affine field: C stays what it was and plays no part.
 #include "core/constitutive.h"
-#include "solvers/transfer.h"
+#include "solvers/cut_transfer.h"
 
 namespace mpm {
 
@@ -25,6 +25,7 @@ struct StandardMpm {
     GridGeometry geo;
     const MaterialParams* materials;
     float dt;
+    bool cuts;  ///< some particle may be cut (ParticleGridSystem::cuts)
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       const Vec3f xp = P.x[p];
@@ -32,6 +33,12 @@ struct StandardMpm {
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Vec3f mv = m * P.v[p];
+      if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, with their own gradients
+        const SidedStencil side(st, geo.dx, P.cut[p]);
+        side.scatter<kCentroid>(st, m, mv, Mat3f{}, xp, P.touch[p], nodes);
+        side.scatterStressImpulse(st, (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]), nodes);
+        return;
+      }
       // dt f_i = -dt V0 tau grad w_i, with grad w_i = (dw0 w1 w2, w0 dw1 w2, w0 w1 dw2):
       // per node w2 (dw0 w1 T0 + w0 dw1 T1) + dw2 (w0 w1 T2), T the impulse's columns
       const Mat3f impulse = (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]);
@@ -82,10 +89,17 @@ struct StandardMpm {
     float flip;  ///< FLIP share of the velocity update
     const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
     int nParts = 0;
+    bool cuts = false;  ///< some particle may be cut (withParts)
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return strayParticle(p, P);
+      if (cuts && isCut(P.cut[p])) {
+        Vec3f vPic, vOld;
+        Mat3f L;
+        SidedStencil(st, geo.dx, P.cut[p]).gather(st, nodes, P.v[p], vPic, L, &vOld);
+        return advance(p, vPic, vPic - vOld, L, true);
+      }
       float dw[3][3];
       st.gradients(geo.invDx, dw);
       const float(&w)[3][3] = st.w;
@@ -114,12 +128,15 @@ struct StandardMpm {
         l2 += w[0][i] * T;
         vo += w[0][i] * O;
       }
-      const Vec3f vPic = vp.xyz();
-      const Vec3f dv = (vp - vo).xyz();
-      const Mat3f L = Mat3f::fromColumns(l0.xyz(), l1.xyz(), l2.xyz());
+      return advance(p, vp.xyz(), (vp - vo).xyz(), Mat3f::fromColumns(l0.xyz(), l1.xyz(), l2.xyz()), false);
+    }
+    /// x += dt v_PIC, the PIC/FLIP velocity (dv: the grid's velocity increment seen by the
+    /// particle), F <- (I + dt L) F; a cut particle's plane moves with it.
+    MPM_HD StepCheck advance(uint32_t p, Vec3f vPic, Vec3f dv, const Mat3f& L, bool cut) const {
       P.x[p] += dt * vPic;
       P.v[p] = flip * (P.v[p] + dv) + (1.f - flip) * vPic;
       P.F[p] = (Mat3f::identity() + dt * L) * P.F[p];
+      if (cut) advectCut(P.cut[p], L, dt);
       return finishParticle(p, P, geo, parts, nParts);
     }
   };
@@ -128,7 +145,7 @@ struct StandardMpm {
   static void substep(System& s, const SubstepParams& p) {
     const ParticleView P = s.particles();
     explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, p.solver.flipBlend},
-                                     P, s.geometry(), s.materials(), p.dt);
+                                     P, s.geometry(), s.materials(), p.dt, s.cuts());
   }
 };
 

