@@ -262,6 +262,158 @@ TEST_P(Cutting, AFullCutMakesTwoPiecesAndAPartialCutStopsAtTheEdge) {
   }
 }
 
+// A cut stays cut. Bonded plates hold the block's two z faces; a blade cuts it through and
+// is removed; then the plates pull the halves apart, their speed ramped up smoothly. The
+// force the far plate carries, averaged over the last 50 ms, against the uncut block's at
+// the same displacement: below 2 %. (Cut only while the blade is there, the halves would
+// join again: the gap the blade leaves is within the kernel's reach.)
+TEST_P(Cutting, ACutStaysCutAfterTheBladeHasGone) {
+  auto pull = [&](bool cut) {
+    Scene scene(settingsFor(solver()));
+    scene.addParticleObject(block());
+    ShapeId plates[2];
+    for (int side = 0; side < 2; ++side) {
+      ShapeDesc plate;
+      plate.parts.push_back(Geometry::box({0.05f, 0.03f, 0.005f}));
+      plate.pose.position = {0.f, 0.f, (side ? 1.f : -1.f) * (kBlockHalf.z + 0.005f)};
+      plate.contact.mode = ContactMode::Bonded;
+      plates[side] = scene.addShape(plate);
+    }
+    const float frame = 1.f / 240.f;
+    if (cut) {
+      const SlicerId s = scene.addSlicer(blade(kBlockHalf.y + 0.01f, {0.f, -0.2f, 0.f}));
+      for (int i = 0; i < 84; ++i) scene.step(frame);  // 0.35 s: the edge 2 cm below the block
+      scene.removeSlicer(s);
+    } else {
+      for (int i = 0; i < 84; ++i) scene.step(frame);
+    }
+    for (int i = 0; i < 24; ++i) scene.step(frame);  // settle
+    // pull: each plate outward at up to 2 cm/s, ramped over 50 ms, for 0.2 s
+    const float top = 0.02f, ramp = 0.05f;
+    double t = 0, force = 0;
+    int samples = 0;
+    for (int i = 0; i < 48; ++i) {
+      const double a = std::min(1.0, (t + 0.5 * frame) / ramp);
+      const float v = top * (float)(a * a * (3 - 2 * a));
+      for (int side = 0; side < 2; ++side) {
+        ShapeState st = scene.shapeState(plates[side]);
+        st.linearVelocity = {0.f, 0.f, (side ? 1.f : -1.f) * v};
+        scene.setShapeState(plates[side], st);
+      }
+      scene.step(frame);
+      t += frame;
+      if (i >= 36) {
+        force += -scene.shapeImpulse(plates[1]).linear.z / frame;  // the material pulls the plate back
+        ++samples;
+      }
+    }
+    return force / samples;
+  };
+  const double uncut = pull(false), cut = pull(true);
+  std::printf("[cut] %s pulled apart: uncut %.4f N, cut %.5f N (%.2f %%)\n", test::solverName(solver()).c_str(), uncut,
+              cut, 100.0 * cut / uncut);
+  EXPECT_GT(uncut, 0.1);
+  EXPECT_LT(std::fabs(cut), 0.02 * uncut);
+}
+
+// Momentum: with gravity off, the tissue's momentum plus the impulses the slicer took stays
+// what it was. The blade cuts down while moving across its plane, so its face pushes the
+// far half. For PB-MPM the blade's impulse must not grow with the iteration count (each
+// iteration exchanges again).
+TEST_P(Cutting, TheSlicerTakesTheMomentumTheTissueLoses) {
+  auto run = [&](int iterations, double& drift, double& scale, double& impulseZ) {
+    SceneSettings settings = settingsFor(solver());
+    settings.pbMpm.iterations = iterations;
+    Scene scene(settings);
+    const ParticleObjectId id = scene.addParticleObject(block());
+    const SlicerId s = scene.addSlicer(blade(kBlockHalf.y + 0.01f, {0.f, -0.2f, 0.05f}));
+    double J[3] = {0, 0, 0};
+    for (int i = 0; i < 42; ++i) {
+      scene.step(1.f / 120.f);
+      const ShapeImpulse imp = scene.slicerImpulse(s);
+      for (int a = 0; a < 3; ++a) J[a] += imp.linear[a];
+    }
+    const ObjectSummary sum = scene.summary(id);
+    drift = 0, scale = 0;
+    for (int a = 0; a < 3; ++a) {
+      drift = std::max(drift, std::fabs(sum.momentum[a] + J[a]));
+      scale = std::max(scale, std::fabs(J[a]));
+    }
+    impulseZ = J[2];
+  };
+  double drift, scale, impulseZ;
+  run(10, drift, scale, impulseZ);
+  std::printf("[cut] %s momentum: slicer impulse %.4e N s (z %.4e), tissue + slicer %.3e (%.2e relative)\n",
+              test::solverName(solver()).c_str(), scale, impulseZ, drift, drift / scale);
+  EXPECT_GT(scale, 1e-5) << "the blade did push the tissue";
+  EXPECT_LT(drift, 1e-4 * scale);
+  if (solver() == SolverType::PbMpm) {
+    double drift20, scale20, impulseZ20;
+    run(20, drift20, scale20, impulseZ20);
+    std::printf("[cut] PbMpm, 20 iterations: slicer impulse z %.4e N s (10 iterations: %.4e)\n", impulseZ20, impulseZ);
+    EXPECT_LT(std::fabs(impulseZ20 / impulseZ - 1.0), 0.2);
+  }
+}
+
+// The spine is blunt: pushed 1 cm into the block's top (the blade upside down, spine first)
+// it cuts nothing, one piece stays, and it pushes as a capsule of its radius does (the
+// force within 10 % of the capsule's). The block's bottom is bonded to a base.
+TEST_P(Cutting, TheSpinePushesWithoutCutting) {
+  const float speed = 0.1f, radius = 0.01f, depth = 0.01f;
+  const float startY = kBlockHalf.y + radius + 0.005f;
+  const double pushTime = (0.005 + depth) / speed;
+  auto push = [&](bool spine, int& n) {
+    Scene scene(settingsFor(solver()));
+    const ParticleObjectId id = scene.addParticleObject(block());
+    ShapeDesc base;  // holds the block's bottom
+    base.parts.push_back(Geometry::box({0.06f, 0.005f, 0.05f}));
+    base.pose.position = {0.f, -kBlockHalf.y - 0.005f, 0.f};
+    base.contact.mode = ContactMode::Bonded;
+    scene.addShape(base);
+    SlicerId s;
+    ShapeId c;
+    if (spine) {
+      QuadSlicerDesc d = blade(0.f);
+      d.spineRadius = radius;
+      d.width = 0.06f;
+      d.pose.rotation = {0.f, 0.f, 0.f, 1.f};  // half a turn about z: the spine below the edge
+      d.pose.position = {0.f, startY + d.width, kCutZ};
+      d.linearVelocity = {0.f, -speed, 0.f};
+      s = scene.addSlicer(d);
+    } else {
+      ShapeDesc cap;
+      Geometry g;
+      g.type = GeometryType::Capsule;
+      g.axis = 0;
+      g.radius = radius;
+      g.halfHeight = 0.06f;
+      cap.parts.push_back(g);
+      cap.contact.mode = ContactMode::Sticky;
+      cap.pose.position = {0.f, startY, kCutZ};
+      cap.linearVelocity = {0.f, -speed, 0.f};
+      c = scene.addShape(cap);
+    }
+    const float frame = 1.f / 240.f;
+    double force = 0;
+    const int frames = (int)std::lround(pushTime / frame);
+    for (int i = 0; i < frames; ++i) {
+      scene.step(frame);
+      if (i == frames - 1) force = (spine ? scene.slicerImpulse(s) : scene.shapeImpulse(c)).linear.y / frame;
+    }
+    std::vector<Vec3f> x;
+    scene.readPositions(id, x);
+    n = pieces(x, 0.5f * kDx);
+    return force;
+  };
+  int nSpine = 0, nCapsule = 0;
+  const double fSpine = push(true, nSpine), fCapsule = push(false, nCapsule);
+  std::printf("[cut] %s spine 1 cm in: %.4f N, %d piece(s); capsule %.4f N, %d piece(s)\n",
+              test::solverName(solver()).c_str(), fSpine, nSpine, fCapsule, nCapsule);
+  EXPECT_EQ(nSpine, 1);
+  EXPECT_GT(fCapsule, 0.01);
+  EXPECT_LT(std::fabs(fSpine / fCapsule - 1.0), 0.1);
+}
+
 INSTANTIATE_TEST_SUITE_P(GridSolvers, Cutting, test::allSolvers(), test::solverParamName());
 
 }  // namespace
