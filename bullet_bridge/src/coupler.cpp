@@ -24,6 +24,12 @@ struct Coupler::Link {
   btVector3 force{0, 0, 0}, torque{0, 0, 0};  ///< multibody: applied over the next tick
 };
 
+struct Coupler::SlicerLink {
+  btRigidBody* body;
+  SlicerId slicer;
+  btTransform local;  ///< the blade's frame in the body's centre-of-mass frame
+};
+
 // CouplingContact repeats ContactParams' fields but friction: a field added there must be
 // added here too
 static_assert(sizeof(ContactParams) == sizeof(ContactMode) + 3 * sizeof(float),
@@ -179,7 +185,37 @@ std::vector<ShapeId> Coupler::addMultiBody(btMultiBody* body, const CouplingOpti
   return ids;
 }
 
+SlicerId Coupler::addSlicer(btRigidBody* body, const QuadSlicerDesc& blade) {
+  if (!body) throw InvalidArgument("Coupler::addSlicer body", "null", "needs a btRigidBody");
+  for (const SlicerLink& l : slicers_)
+    if (l.body == body) throw InvalidArgument("Coupler::addSlicer body", "already a slicer", "one blade per body");
+  const Pose& p = blade.pose;
+  const btTransform local(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
+                          btVector3(p.position.x, p.position.y, p.position.z));
+  QuadSlicerDesc placed = blade;
+  const btTransform world = body->getCenterOfMassTransform() * local;
+  const btQuaternion q = world.getRotation();
+  placed.pose = {toVec(world.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};
+  placed.linearVelocity = toVec(body->getVelocityInLocalPoint(world.getOrigin() - body->getCenterOfMassPosition()));
+  placed.angularVelocity = toVec(body->getAngularVelocity());
+  const SlicerId id = scene_.addSlicer(placed);  // validates the blade
+  slicers_.push_back({body, id, local});
+  return id;
+}
+
+SlicerId Coupler::slicerOf(const btRigidBody* body) const {
+  for (const SlicerLink& l : slicers_)
+    if (l.body == body) return l.slicer;
+  throw InvalidArgument("Coupler::slicerOf body", "not a slicer", "this body was never added with addSlicer");
+}
+
 void Coupler::remove(const btCollisionObject* object) {
+  for (size_t i = 0; i < slicers_.size(); ++i)
+    if (slicers_[i].body == object) {
+      scene_.removeSlicer(slicers_[i].slicer);
+      slicers_.erase(slicers_.begin() + (long)i);
+      break;
+    }
   for (size_t i = 0; i < links_.size(); ++i)
     if (links_[i].object == object) {
       scene_.removeShape(links_[i].shape);
@@ -395,6 +431,13 @@ void Coupler::tick(float dt) {
     scene_.setShapeState(l.shape, {{toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}},
                                    toVec(v), toVec(w)});
   }
+  for (const SlicerLink& l : slicers_) {
+    const btTransform t = l.body->getCenterOfMassTransform() * l.local;
+    const btQuaternion q = t.getRotation();
+    const btVector3 v = l.body->getVelocityInLocalPoint(t.getOrigin() - l.body->getCenterOfMassPosition());
+    scene_.setSlicerState(l.slicer, {{toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}},
+                                     toVec(v), toVec(l.body->getAngularVelocity())});
+  }
   // 2. the tissue advances over the tick with its own substeps
   scene_.step(dt);
   // 3. the momentum the grid gave each shape goes back to its body
@@ -412,6 +455,15 @@ void Coupler::tick(float dt) {
       addLinkForce(l.multi, l.link, l.force, l.torque);
       l.multi->wakeUp();
     }
+  }
+  // a dynamic scalpel takes the slicer's impulse, given about the blade's frame origin
+  for (const SlicerLink& l : slicers_) {
+    if (l.body->isStaticOrKinematicObject()) continue;
+    const ShapeImpulse J = scene_.slicerImpulse(l.slicer);
+    const btVector3 lever = (l.body->getCenterOfMassTransform() * l.local).getOrigin() - l.body->getCenterOfMassPosition();
+    l.body->applyCentralImpulse(toBt(J.linear));
+    l.body->applyTorqueImpulse(toBt(J.angular) + lever.cross(toBt(J.linear)));
+    l.body->activate();
   }
 }
 

@@ -213,6 +213,7 @@ class SceneImpl {
     w.put(account);
     checkpoint::writeObjects(w, objects);
     checkpoint::writeShapes(w, shapes);
+    checkpoint::writeSlicers(w, slicers);
     BackendState state;
     backend->exportState(state);
     checkpoint::writeBackendState(w, state);
@@ -228,6 +229,7 @@ class SceneImpl {
     EnergyAccount account;
     ObjectTable objects{"ParticleObjectId", "particle object"};
     ShapeTable shapes{"ShapeId", "shape"};
+    SlicerTable slicers{"SlicerId", "slicer"};
     BackendState backend;
     std::vector<uint8_t> attachment;
   };
@@ -241,6 +243,7 @@ class SceneImpl {
     l.account = r.get<EnergyAccount>("the energy account");
     checkpoint::readObjects(r, l.objects);
     checkpoint::readShapes(r, l.shapes);
+    checkpoint::readSlicers(r, l.slicers);
     checkpoint::readBackendState(r, l.backend);
     checkpoint::checkParticles(l.backend, l.objects, solverTraits(settings.solver).meshless);
     r.section("attachment");
@@ -257,6 +260,7 @@ class SceneImpl {
     account = l.account;
     objects = std::move(l.objects);
     shapes = std::move(l.shapes);
+    slicers = std::move(l.slicers);
     bodies = BodyMap{};
     uploadMaterials();
     backend->importState(l.backend);

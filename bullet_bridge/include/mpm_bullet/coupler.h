@@ -102,7 +102,17 @@ class Coupler {
   ShapeId addRigidBody(btRigidBody* body, const CouplingOptions& options = {});
   /// Couples every link collider (and the base's) of a multibody.
   std::vector<ShapeId> addMultiBody(btMultiBody* body, const CouplingOptions& options = {});
-  /// Stops coupling a body; its shape leaves the scene.
+  /// Couples a rigid body (kinematic or dynamic) as a slicer, a scalpel: `blade.pose` is
+  /// the blade's frame in the body's centre-of-mass frame (its velocities are not used:
+  /// the blade moves with the body). Every tick the slicer takes the body's motion, and a
+  /// dynamic body receives what the tissue gave the slicer: the faces' and the spine's
+  /// contact and the resistance to cutting (Material::fractureToughness). The body's
+  /// collision shape is not coupled by this: a handle that should push tissue is added
+  /// with addRigidBody too.
+  SlicerId addSlicer(btRigidBody* body, const QuadSlicerDesc& blade);
+  /// Slicer of a body coupled with addSlicer, e.g. to read its last impulse.
+  SlicerId slicerOf(const btRigidBody* body) const;
+  /// Stops coupling a body (its shape, its slicer: they leave the scene; cuts stay).
   void remove(const btCollisionObject* object);
 
   /// Called after each internal tick, with the tick length [s].
@@ -143,6 +153,7 @@ class Coupler {
 
  private:
   struct Link;
+  struct SlicerLink;
   /// The coupled bodies' poses and velocities, as a checkpoint's attachment.
   std::vector<uint8_t> bodiesAttachment() const;
   ShapeId addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
@@ -150,6 +161,7 @@ class Coupler {
   btDynamicsWorld* world_;
   Scene& scene_;
   std::vector<Link> links_;
+  std::vector<SlicerLink> slicers_;
   std::function<void(float)> userCallback_;
   std::exception_ptr error_;
 };

@@ -164,14 +164,14 @@ class Scene {
   ObjectSummary summary(ParticleObjectId id) const;
 
   /// Checkpoints. save() writes the whole scene (its model settings, objects and their
-  /// materials, shapes with their mesh grids, every particle field, time, the energy
+  /// materials, shapes with their mesh grids, slicers, every particle field (cuts too), time, the energy
   /// account) and `attachment`, the caller's own bytes kept with it (the Bullet coupler
   /// keeps its bodies there). Files are written whole or not at all: into `path`.tmp,
   /// flushed, then renamed, so a failed save (CheckpointError, Io) leaves the file that
   /// was there. Not during a step.
   void save(const std::string& path, const std::vector<uint8_t>& attachment = {}) const;
   std::vector<uint8_t> saveToMemory(const std::vector<uint8_t>& attachment = {}) const;
-  /// Replaces this scene's objects, shapes, particles, time and energy account with a
+  /// Replaces this scene's objects, shapes, slicers, particles (with their cuts), time and energy account with a
   /// checkpoint's and returns its attachment. Handles issued before the save name the same
   /// objects and shapes again. Stepping on is bit for bit the run that was saved (CPU
   /// backend, same thread count). Refused with CheckpointError, changing nothing, when the

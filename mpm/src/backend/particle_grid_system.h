@@ -39,15 +39,40 @@ struct Gather {
   MPM_HD void operator()(size_t i) const { out[i] = in[order[i]]; }
 };
 
-/// Records on every particle beside a blade the cut it lies in (solvers/cut_transfer.h).
+/// Records on every particle beside a blade the cut it lies in, and with `impulses`
+/// (materials with toughness) exchanges the resistance to cutting over the substep between
+/// the particle and each blade: the blade's share summed per particle and blade in
+/// `impulses`, the particle's in `push`, which P2G hands to the grid (solvers/cut_transfer.h).
 struct RecordCuts {
   ParticleView P;
   const PartView* parts;
   int nParts;
-  float reach;
+  const BodyView* bodies;
+  const MaterialParams* materials;
+  BladeImpulse* impulses;  ///< [blade * P.count + particle]; null: no toughness in the scene
+  Vec3f* push;             ///< [particle], with `impulses`
+  float dx, dt;
   MPM_HD void operator()(size_t i) const {
-    for (int b = 0; b < nParts; ++b)
-      if (parts[b].type == kPartBlade && parts[b].mayTouch(P.x[i], P.x[i])) recordCut(P.cut[i], P.x[i], parts[b], reach);
+    // a particle farther from the blade's plane than its stencil's reach has no node across
+    const float reach = 1.5f * dx;
+    if (push) push[i] = Vec3f{0.f, 0.f, 0.f};
+    for (int b = 0, blade = 0; b < nParts; ++b) {
+      if (parts[b].type != kPartBlade) continue;
+      const PartView& part = parts[b];
+      if (part.mayTouch(P.x[i], P.x[i])) {
+        recordCut(P.cut[i], P.x[i], part, reach);
+        const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
+        if (gc > 0.f) {
+          const Vec3f f =
+              cuttingResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc, dx);
+          push[i] -= dt * f;
+          BladeImpulse& J = impulses[(size_t)blade * P.count + i];
+          J.linear += dt * f;
+          J.angular += dt * cross(P.x[i] - bodies[part.body].com, f);
+        }
+      }
+      ++blade;
+    }
   }
 };
 
@@ -79,6 +104,8 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 #undef MPM_BIND
     scratch_.bind(&exec_);
     marks_.bind(&exec_);
+    bladeImpulses_.bind(&exec_);
+    push_.bind(&exec_);
     materials_.bind(&exec_);
   }
 
@@ -136,12 +163,48 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
     ShapeBackend<Exec>::setShapes(bodies, parts);
-    blades_ = false;
-    for (const PartView& p : parts) blades_ = blades_ || p.type == kPartBlade;
+    bladeBodies_.clear();
+    for (const PartView& p : parts)
+      if (p.type == kPartBlade) bladeBodies_.push_back(p.body);
+    blades_ = !bladeBodies_.empty();
     everCut_ = everCut_ || blades_;
+    // the resistance to cutting, per particle and blade, summed over the advance
+    const size_t n = toughness_ ? bladeBodies_.size() * count_ : 0;
+    bladeImpulses_.resizeDiscard(n);
+    push_.resizeDiscard(n ? count_ : 0);
+    if (n) {
+      const std::vector<BladeImpulse> zero(n, BladeImpulse{});
+      exec_.copyToDevice(bladeImpulses_.data(), zero.data(), n * sizeof(BladeImpulse));
+    }
+  }
+
+  /// The shapes' impulses, the slicers' faces with the resistance to cutting added.
+  std::vector<ContactSums> takeImpulses() override {
+    std::vector<ContactSums> out = ShapeBackend<Exec>::takeImpulses();
+    if (bladeImpulses_.size() == 0) return out;
+    std::vector<BladeImpulse> all(bladeImpulses_.size());
+    exec_.copyToHost(all.data(), bladeImpulses_.data(), all.size() * sizeof(BladeImpulse));
+    for (size_t b = 0; b < bladeBodies_.size(); ++b) {
+      double sum[6] = {0, 0, 0, 0, 0, 0};
+      for (size_t i = 0; i < count_; ++i)
+        for (int a = 0; a < 3; ++a) {
+          sum[a] += all[b * count_ + i].linear[a];
+          sum[3 + a] += all[b * count_ + i].angular[a];
+        }
+      ContactSums& c = out[bladeBodies_[b]];
+      for (int a = 0; a < 3; ++a) {
+        c.impulse[a] += (float)sum[a];
+        c.angular[a] += (float)sum[3 + a];
+      }
+    }
+    const std::vector<BladeImpulse> zero(all.size(), BladeImpulse{});
+    exec_.copyToDevice(bladeImpulses_.data(), zero.data(), zero.size() * sizeof(BladeImpulse));
+    return out;
   }
 
   void setMaterials(const std::vector<MaterialParams>& m) override {
+    toughness_ = false;
+    for (const MaterialParams& p : m) toughness_ = toughness_ || p.toughness > 0.f;
     materials_.resizeDiscard(m.size());
     exec_.copyToDevice(materials_.data(), m.data(), m.size() * sizeof(MaterialParams));
   }
@@ -195,14 +258,20 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// Whether some particle may carry a cut: a blade is in the scene, or was since the
   /// particles were last replaced. Until then the transfers do not read the cut field.
   bool cuts() const { return everCut_; }
+  /// The impulse the resistance to cutting gives each particle this substep, which P2G
+  /// adds to the grid as a force (so standard MPM's FLIP sees it as the grid's change, not
+  /// a kick the particle keeps); null when no blade with tough material is in reach.
+  const Vec3f* cuttingPush() const { return pushing_ ? push_.data() : nullptr; }
   /// Records the cuts of the blades in reach on the particles beside them (before P2G,
   /// after placeShapes). Nothing without a blade in reach.
-  void recordCuts() {
+  void recordCuts(float dt) {
+    pushing_ = false;
     if (!blades_ || partCount() == 0) return;
     const auto t0 = Clock::now();
-    // a particle farther from the blade's plane than its stencil's reach (1.5 dx) has no
-    // node across it
-    exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), 1.5f * geo_.dx});
+    pushing_ = bladeImpulses_.size() > 0;
+    BladeImpulse* impulses = pushing_ ? bladeImpulses_.data() : nullptr;
+    exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), shapes_.bodies(), materials_.data(),
+                                              impulses, pushing_ ? push_.data() : nullptr, geo_.dx, dt});
     timings.contact += seconds(t0);
   }
 
@@ -292,7 +361,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = scratch_.bytes() + marks_.bytes() + materials_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
+    size_t b = scratch_.bytes() + marks_.bytes() + materials_.bytes() + bladeImpulses_.bytes() + push_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
 #define MPM_BYTES(type, name) b += name##_.bytes() + name##Saved_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -321,6 +390,11 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   bool shapesInReach_ = false;  ///< of the current substep (placeShapes)
   bool blades_ = false;          ///< a slicer's blade is among the parts
   bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
+  bool toughness_ = false;       ///< some material resists cutting (MaterialParams::toughness)
+  std::vector<int> bladeBodies_;  ///< the body of each blade part, in part order
+  ExecArray<BladeImpulse, Exec> bladeImpulses_;
+  ExecArray<Vec3f, Exec> push_;  ///< cuttingPush()
+  bool pushing_ = false;         ///< of the current substep (recordCuts)
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveState)
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER

@@ -13,6 +13,7 @@ struct MaterialParams {
   float lambda = 0;    ///< first Lamé parameter [Pa]
   float bulk = 0;      ///< K = lambda + 2 mu / 3 [Pa]
   float density = 0;   ///< [kg/m^3]
+  float toughness = 0; ///< fracture toughness G_c [J/m^2]
 };
 
 enum : int { kFixedCorotated = 0, kNeoHookeanDecoupled = 1 };

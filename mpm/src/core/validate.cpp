@@ -144,6 +144,9 @@ void material(const std::string& prefix, const Material& m) {
   if (!(m.poissonRatio > -1.f && m.poissonRatio < 0.5f))
     throw InvalidArgument(prefix + ".poissonRatio", show(m.poissonRatio), "must lie in (-1, 0.5)");
   positive(prefix + ".density", m.density);
+  finite(prefix + ".fractureToughness", m.fractureToughness);
+  if (m.fractureToughness < 0.f)
+    throw InvalidArgument(prefix + ".fractureToughness", show(m.fractureToughness), "must be >= 0 [J/m^2]");
 }
 
 void particleObjectDesc(const ParticleObjectDesc& d) {

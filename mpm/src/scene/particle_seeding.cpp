@@ -21,6 +21,7 @@ MaterialParams materialParams(const Material& m) {
   p.lambda = E * nu / ((1.f + nu) * (1.f - 2.f * nu));
   p.bulk = p.lambda + 2.f * p.mu / 3.f;
   p.density = m.density;
+  p.toughness = m.fractureToughness;
   return p;
 }
 

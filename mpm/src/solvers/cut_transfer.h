@@ -42,6 +42,61 @@ MPM_HD void recordCut(CutPlane& cut, Vec3f x, const PartView& blade, float reach
   cut.offset = fabsf(z);
 }
 
+/// Momentum a blade receives over a substep, and its moment about the blade's centre.
+struct BladeImpulse {
+  Vec3f linear, angular;
+};
+
+/// Radius of the region about a blade's cutting boundary in which material counts as
+/// engaged, in cells. Each particle on the uncut side of the boundary there adds twice its
+/// volume times a weight to the engaged length; the weight (1 - rho^2 / r^2)^2 integrates
+/// to pi r^2 / 3 over the disc, so the sum is the length of boundary inside material and
+/// is smooth as the blade moves. Only the uncut half of the disc is counted: behind the
+/// boundary the blade has pushed the material out of its band, and counting both halves
+/// measured 12-14 % short of G_c d.
+constexpr float kCuttingReach = 1.f;
+/// Below this speed of the boundary [m/s] the resistance grows in proportion (a blade at
+/// rest feels none; Coulomb-like, regularised).
+constexpr float kCuttingSpeedScale = 1e-3f;
+
+/// The resistance to cutting that a particle of current volume `volume` at x opposes to
+/// blade part `blade` of body `body`: -G_c l t for each cutting boundary it lies just ahead
+/// of (the edge, outward -y, and the two ends of the blade, outward +-x, up to the spine's
+/// reach), l its share of the engaged length and t the boundary's outward direction, while
+/// the boundary moves outward. The force on the blade [N]; the particle takes the opposite
+/// (opening the cut pushes the material ahead of the edge).
+///
+/// The boundary's speed is the blade's own, not relative to the particle: a particle's
+/// velocity is noisy at this scale (the reaction kicks the few particles ahead of the edge,
+/// and with standard MPM's FLIP they keep the kick): measured relative to it, the switch
+/// above held standard MPM's force at 32-55 % of G_c d. So material that moves along with
+/// the blade is still charged as if it were cut.
+MPM_HD Vec3f cuttingResistance(const PartView& blade, const BodyView& body, Vec3f x, float volume, float toughness,
+                               float dx) {
+  const Vec3f q = transpose(blade.rotation) * (x - blade.position);
+  const float z = q.z - 0.5f * (blade.faceLower.z + blade.faceUpper.z);
+  const float r = kCuttingReach * dx, r2 = r * r;
+  const float share = 2.f * volume / (3.14159265f * r2 / 3.f);
+  const Vec3f u = body.velocityAt(x);  // the blade's motion
+  const float lo = blade.faceLower.y, top = blade.faceUpper.y - blade.radius;
+  Vec3f f{0.f, 0.f, 0.f};
+  // a boundary at distance `ahead` behind the particle (> 0: the particle is on its uncut
+  // side), the particle at `along` on it, which runs over [from, to]; outward `outLocal`
+  auto boundary = [&](float ahead, float along, float from, float to, Vec3f outLocal) {
+    const float rho2 = ahead * ahead + z * z;
+    if (ahead <= 0.f || rho2 >= r2 || along < from || along > to) return;
+    const Vec3f out = blade.rotation * outLocal;
+    const float un = dot(u, out);
+    if (un <= 0.f) return;
+    const float w = (1.f - rho2 / r2) * (1.f - rho2 / r2);
+    f -= (toughness * share * w * fminf(un / kCuttingSpeedScale, 1.f)) * out;
+  };
+  boundary(lo - q.y, q.x, blade.faceLower.x, blade.faceUpper.x, Vec3f{0.f, -1.f, 0.f});
+  boundary(q.x - blade.faceUpper.x, q.y, lo, top, Vec3f{1.f, 0.f, 0.f});
+  boundary(blade.faceLower.x - q.x, q.y, lo, top, Vec3f{-1.f, 0.f, 0.f});
+  return f;
+}
+
 /// A cut plane carried over a substep by the particle's motion, x <- x + dt v with velocity
 /// gradient C: points near the particle move by (I + dt C), so the plane's normal turns by
 /// (I + dt C)^-T (to first order, I - dt C^T) and the offset follows the particle's foot on it.
@@ -107,13 +162,14 @@ struct SidedStencil {
   }
 
   /// Standard MPM's stress impulse dt f_i = S grad w_i with the gradient of the sided
-  /// stencil, grad w_i = w_i Dinv (x_i - x-bar) (S = -dt V0 tau).
+  /// stencil, grad w_i = w_i Dinv (x_i - x-bar) (S = -dt V0 tau), and w_i times an
+  /// external impulse `J` on the particle.
   template <class Nodes>
-  MPM_HD void scatterStressImpulse(const QuadraticStencil& st, const Mat3f& S, Nodes& nodes) const {
+  MPM_HD void scatterStressImpulse(const QuadraticStencil& st, const Mat3f& S, Vec3f J, Nodes& nodes) const {
     const Mat3f SD = S * Dinv;
     for (int n = 0; n < 27; ++n) {
       if (w[n] == 0.f) continue;
-      const Vec3f f = w[n] * (SD * d[n]);
+      const Vec3f f = w[n] * (SD * d[n] + J);
       nodes.addStressImpulse(st.base[0] + n / 9, st.base[1] + (n / 3) % 3, st.base[2] + n % 3,
                              Float4::make(0.f, f.x, f.y, f.z));
     }

@@ -21,21 +21,23 @@ struct MlsMpm {
     GridGeometry geo;
     const MaterialParams* materials;
     float dt;
-    bool cuts;  ///< some particle may be cut (ParticleGridSystem::cuts)
+    bool cuts;          ///< some particle may be cut (ParticleGridSystem::cuts)
+    const Vec3f* push;  ///< resistance to cutting this substep, or null (ParticleGridSystem::cuttingPush)
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
+      const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
       if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, M^-1 their own
         const SidedStencil side(st, geo.dx, P.cut[p]);
         const Mat3f affine = m * P.C[p] - (dt * P.volume0[p]) * (tau * side.Dinv);
-        side.scatter<kCentroid>(st, m, m * P.v[p], affine, P.x[p], P.touch[p], nodes);
+        side.scatter<kCentroid>(st, m, mv, affine, P.x[p], P.touch[p], nodes);
         return;
       }
       const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * apicInverseInertia(geo)) * tau;
-      apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], affine, P.x[p], P.touch[p], nodes);
+      apicScatter<kCentroid>(st, geo.dx, m, mv, affine, P.x[p], P.touch[p], nodes);
     }
   };
 
@@ -71,7 +73,7 @@ struct MlsMpm {
   static void substep(System& s, const SubstepParams& p) {
     const ParticleView P = s.particles();
     explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt}, P, s.geometry(),
-                                     s.materials(), p.dt, s.cuts());
+                                     s.materials(), p.dt, s.cuts(), s.cuttingPush());
   }
 };
 

@@ -39,7 +39,8 @@ struct PbMpm {
     float dt;
     float relaxation;
     float rigidity;
-    bool cuts;  ///< some particle may be cut (ParticleGridSystem::cuts)
+    bool cuts;          ///< some particle may be cut (ParticleGridSystem::cuts)
+    const Vec3f* push;  ///< resistance to cutting, first cycle only, or null (ParticleGridSystem::cuttingPush)
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
@@ -53,10 +54,11 @@ struct PbMpm {
       const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
       const Mat3f Cc = C + relaxation * ((1.f / dt) * (Fc * inverse(F) - I) - C);
       const float m = P.mass[p];
+      const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
       if (cuts && isCut(P.cut[p]))
-        SidedStencil(st, geo.dx, P.cut[p]).scatter<kCentroid>(st, m, m * P.v[p], m * Cc, P.x[p], P.touch[p], nodes);
+        SidedStencil(st, geo.dx, P.cut[p]).scatter<kCentroid>(st, m, mv, m * Cc, P.x[p], P.touch[p], nodes);
       else
-        apicScatter<kCentroid>(st, geo.dx, m, m * P.v[p], m * Cc, P.x[p], P.touch[p], nodes);
+        apicScatter<kCentroid>(st, geo.dx, m, mv, m * Cc, P.x[p], P.touch[p], nodes);
     }
   };
 
@@ -99,12 +101,14 @@ struct PbMpm {
   static void substep(System& s, const SubstepParams& p) {
     s.binParticles();  // positions stay put until the last cycle
     s.placeShapes();
-    s.recordCuts();
+    s.recordCuts(p.dt);
     const ParticleView P = s.particles();
     const int n = p.solver.iterations;
     for (int it = 0; it < n; ++it) {
       s.clearGrid();
-      scatterParticles<P2G>(s, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, s.cuts());
+      // the resistance to cutting acts once a substep, like gravity
+      scatterParticles<P2G>(s, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, s.cuts(),
+                            it == 0 ? s.cuttingPush() : nullptr);
       const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
       s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
       s.exchangeContact(p.dt, it == 0);

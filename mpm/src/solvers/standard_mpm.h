@@ -25,7 +25,8 @@ struct StandardMpm {
     GridGeometry geo;
     const MaterialParams* materials;
     float dt;
-    bool cuts;  ///< some particle may be cut (ParticleGridSystem::cuts)
+    bool cuts;          ///< some particle may be cut (ParticleGridSystem::cuts)
+    const Vec3f* push;  ///< resistance to cutting this substep, or null (ParticleGridSystem::cuttingPush)
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
       const Vec3f xp = P.x[p];
@@ -33,12 +34,16 @@ struct StandardMpm {
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Vec3f mv = m * P.v[p];
+      // the resistance to cutting enters as a force, with the stress: the FLIP increment sees it
+      const Vec3f pushed = push ? push[p] : Vec3f{0.f, 0.f, 0.f};
       if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, with their own gradients
         const SidedStencil side(st, geo.dx, P.cut[p]);
         side.scatter<kCentroid>(st, m, mv, Mat3f{}, xp, P.touch[p], nodes);
-        side.scatterStressImpulse(st, (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]), nodes);
+        side.scatterStressImpulse(st, (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]), pushed,
+                                  nodes);
         return;
       }
+      const Float4 push4 = Float4::make(0.f, pushed.x, pushed.y, pushed.z);
       // dt f_i = -dt V0 tau grad w_i, with grad w_i = (dw0 w1 w2, w0 dw1 w2, w0 w1 dw2):
       // per node w2 (dw0 w1 T0 + w0 dw1 T1) + dw2 (w0 w1 T2), T the impulse's columns
       const Mat3f impulse = (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]);
@@ -60,7 +65,7 @@ struct StandardMpm {
             const float wt = wij * w[2][k];
             nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * q0);
             if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, (wt * m) * x4);
-            nodes.addStressImpulse(base[0] + i, base[1] + j, base[2] + k, w[2][k] * e + dw[2][k] * f);
+            nodes.addStressImpulse(base[0] + i, base[1] + j, base[2] + k, w[2][k] * e + dw[2][k] * f + wt * push4);
           }
         }
     }
@@ -145,7 +150,7 @@ struct StandardMpm {
   static void substep(System& s, const SubstepParams& p) {
     const ParticleView P = s.particles();
     explicitSubstep<P2G, GridUpdate>(s, p, G2P{P, s.geometry(), p.dt, p.solver.flipBlend},
-                                     P, s.geometry(), s.materials(), p.dt, s.cuts());
+                                     P, s.geometry(), s.materials(), p.dt, s.cuts(), s.cuttingPush());
   }
 };
 

@@ -158,7 +158,7 @@ template <template <bool> class P2G, class GridKernel, class System, class G2PKe
 void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, const P2GArgs&... p2gArgs) {
   s.binParticles();
   s.placeShapes();
-  s.recordCuts();
+  s.recordCuts(p.dt);
   s.clearGrid();
   scatterParticles<P2G>(s, p2gArgs...);
   s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});

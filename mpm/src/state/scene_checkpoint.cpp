@@ -130,6 +130,16 @@ void readShapes(Reader& r, ShapeTable& shapes) {
   });
 }
 
+void writeSlicers(Writer& w, const SlicerTable& slicers) {
+  w.section("slicers");
+  slicers.save(w, [](Writer& out, const SlicerRecord& s) { out.put(s); });
+}
+
+void readSlicers(Reader& r, SlicerTable& slicers) {
+  r.section("slicers");
+  slicers.load(r, [](Reader& in) { return in.get<SlicerRecord>("a slicer"); });
+}
+
 void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless) {
   std::vector<size_t> count(objects.size(), 0);
   const HostParticles& p = s.particles;

@@ -28,6 +28,9 @@ void writeObjects(Writer& w, const ObjectTable& objects);
 void readObjects(Reader& r, ObjectTable& objects);
 void writeShapes(Writer& w, const ShapeTable& shapes);
 void readShapes(Reader& r, ShapeTable& shapes);
+/// The slicers' table (their cuts are in the particles).
+void writeSlicers(Writer& w, const SlicerTable& slicers);
+void readSlicers(Reader& r, SlicerTable& slicers);
 
 /// Refuses (Truncated: the file is inconsistent) particles that name no live object, or
 /// objects whose particle count differs from their particles', or a meshless backend
