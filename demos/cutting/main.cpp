@@ -164,13 +164,19 @@ int main(int argc, char** argv) {
     std::printf("cutting (%s, dx %.1f mm): %zu tissue particles, G_c %.0f J/m^2\n", solverName.c_str(), dx * 1e3,
                 scene.particleCount(), toughness);
     mpm::io::Camera camera;
-    camera.eye = {0.05f, 0.22f, 0.16f};
+    camera.eye = {0.07f, 0.17f, 0.13f};
     camera.target = {0.f, 0.02f, 0.f};
     camera.width = 800;
     camera.height = 560;
     camera.fovYDegrees = 35.f;
     mpm::io::SplatRenderer renderer(camera);
     renderer.setGround(0.f, 0.1f);
+    // and along the cut from the end where it starts, low: the slot's depth
+    mpm::io::Camera endCamera = camera;
+    endCamera.eye = {-0.17f, 0.08f, 0.04f};
+    endCamera.target = {0.f, 0.02f, 0.f};
+    mpm::io::SplatRenderer endRenderer(endCamera);
+    endRenderer.setGround(0.f, 0.1f);
     std::ofstream csv(out + "/force.csv");
     csv << "time_s,lead_x_m,edge_y_m,force_x_N,force_y_N,force_z_N\n";
     const int frames = (int)std::ceil(script.t4 * 60) + 30;
@@ -191,9 +197,10 @@ int main(int argc, char** argv) {
       script.at(motion.time, lead, edge);
       csv << scene.time() << "," << lead << "," << edge << "," << force.x << "," << force.y << "," << force.z << "\n";
       peak = std::max(peak, (double)std::fabs(force.x));
-      // steady: moving right at full speed through the middle of the cut
+      // steady: moving right at full speed through the middle of the cut (the force on the
+      // blade points against its motion, -x)
       if (motion.time > 1.25 && motion.time < 1.55) {
-        steady += force.x;
+        steady -= force.x;
         ++steadySamples;
       }
       if (f % pngEvery == 0 || f == frames) {
@@ -211,6 +218,11 @@ int main(int argc, char** argv) {
         if (edge < kHeight + 0.02f) renderer.addParticles(steel, 0.0006f, {170, 175, 190});
         std::snprintf(name, sizeof name, "/frame_%04d.png", f);
         renderer.writePng(out + name);
+        if (f == frames) {
+          endRenderer.addParticles(near, 0.3f * dx, {215, 110, 105});
+          endRenderer.addParticles(far, 0.3f * dx, {235, 150, 130});
+          endRenderer.writePng(out + "/cut_end_view.png");
+        }
       }
       progress.update(f);
     }
@@ -234,7 +246,7 @@ int main(int argc, char** argv) {
                   "pieces after the cut: %d (the cut is partial: the block stays one piece below it)\n"
                   "cut length %.1f mm along x, depth %.1f then %.1f mm\n"
                   "gap across the cut after the blade left: %.2f mm\n"
-                  "peak cutting force %.3f N, steady %.3f N (G_c x depth = %.3f N)\n",
+                  "cutting force against the motion: peak %.3f N, steady %.3f N (G_c x depth = %.3f N)\n",
                   solverName.c_str(), dx * 1e3, scene.particleCount(), toughness, n, (kEndX - kStartX + 0.03f) * 1e3,
                   kFirstDepth * 1e3, kSecondDepth * 1e3, (farMin - nearMax) * 1e3, peak, steady,
                   toughness * kFirstDepth);
