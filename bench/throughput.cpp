@@ -62,12 +62,14 @@ static_assert(kBytesPerParticleSubstep == 204, "particle layout changed: recount
 
 /// A variant of the CRESSim scene, for the "pay only for what a scene uses" pairs.
 struct SceneVariant {
-  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean
+  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough
 
   static SceneVariant parse(const std::string& name) {
-    if (name == "plain" || name == "far-shapes" || name == "big-domain" || name == "neo-hookean")
+    if (name == "plain" || name == "far-shapes" || name == "big-domain" || name == "neo-hookean" ||
+        name == "slicer" || name == "slicer-tough")
       return SceneVariant{name};
-    throw mpm::InvalidArgument("--variants", name, "is not plain, far-shapes, big-domain or neo-hookean");
+    throw mpm::InvalidArgument("--variants", name,
+                               "is not plain, far-shapes, big-domain, neo-hookean, slicer or slicer-tough");
   }
   /// big-domain: [-11.1, 11.1]^3, 111 cells per axis (8.1x the nodes of 56^3), grown by
   /// whole grid blocks (7 x 0.8 m) on each side so the box sits on the grid exactly as in
@@ -81,7 +83,21 @@ struct SceneVariant {
   mpm::ParticleObjectDesc box(float halfSize) const {
     mpm::ParticleObjectDesc d = CressimBench::box(halfSize);
     if (name == "neo-hookean") d.material.model = mpm::MaterialModel::NeoHookeanDecoupled;
+    if (name == "slicer-tough") d.material.fractureToughness = 1000.f;
     return d;
+  }
+  /// slicer, slicer-tough: a blade across the whole box (its plane z = 0.05, off the node
+  /// layers), its edge starting 0.2 m above the box's top and moving down at 2 m/s, so it
+  /// cuts into the falling box through the timed frames; slicer-tough adds the resistance
+  /// to cutting (G_c 1000 J/m^2).
+  void addSlicer(mpm::Scene& scene, float halfSize) const {
+    if (name != "slicer" && name != "slicer-tough") return;
+    mpm::QuadSlicerDesc d;
+    d.halfLength = halfSize + 0.5f;
+    d.width = 2.f * halfSize + 1.f;
+    d.pose.position = {0.f, halfSize + 0.2f, 0.05f};
+    d.linearVelocity = {0.f, -2.f, 0.f};
+    scene.addSlicer(d);
   }
   /// far-shapes: a kinematic box, sphere, capsule and cylinder of size 0.3 m centred at
   /// (+-4.6, 4.6, +-4.6), at least 1.5 m (7 cells) from the box's top corner at half-size 2.5
@@ -272,6 +288,7 @@ RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
   mpm::Scene scene(row.solver.settings(row.threads, row.variant, row.backend));
   scene.addParticleObject(row.variant.box(row.halfSize));
   row.variant.addShapes(scene);
+  row.variant.addSlicer(scene, row.halfSize);
   for (int f = 0; f < kWarmupFrames; ++f) {
     scene.step(CressimBench::kFrameDt);
     progress.update(++framesDone);
@@ -414,8 +431,11 @@ std::string pairsTable(const std::vector<Row>& rows) {
        " 4^3 nodes) grows with the domain, which shows in bytes/particle at small particle counts.\n"
        "- neo-hookean: the library has no plasticity model (fixed corotated and decoupled Neo-Hookean"
        " are both purely elastic), so there is no \"elastic skips plasticity\" pair to make; this row"
-       " compares the two elastic laws (Neo-Hookean needs no polar decomposition). There is no cutting"
-       " yet, so no \"no slicer\" pair either.\n\n";
+       " compares the two elastic laws (Neo-Hookean needs no polar decomposition).\n"
+       "- slicer, slicer-tough: the cost of a cut in progress (each substep records the blade on the"
+       " particles beside it; a cut particle transfers through its own side's nodes, cut_transfer.h);"
+       " slicer-tough adds the resistance to cutting. Plain runs no cut code: the transfers branch on"
+       " a scene flag that stays off until a slicer is added.\n\n";
   return t.str();
 }
 
@@ -526,7 +546,9 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        "- scene: plain is the CRESSim scene; far-shapes adds a kinematic box, sphere, capsule and"
        " cylinder (0.3 m) at (+-4.6, 4.6, +-4.6), far from every particle up to half-size 2.5;"
        " big-domain grows the domain to [-11.1, 11.1]^3 (8.1x the nodes; the box on the grid as"
-       " in plain); neo-hookean uses the decoupled Neo-Hookean law instead of fixed corotated.\n"
+       " in plain); neo-hookean uses the decoupled Neo-Hookean law instead of fixed corotated;"
+       " slicer adds a blade across the box moving down at 2 m/s from 0.2 m above it (slicer-tough:"
+       " with G_c 1000 J/m^2).\n"
        "- bytes/particle: `Scene::memoryBytes()` (particles, sort scratch and grid blocks) over"
        " the particle count, after the run.\n"
        "- speed-up vs 1 thread: ms/frame of the 1-thread row of the same size, from this run,"
@@ -662,7 +684,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", opt.out, "path stem of the results; writes <out>.md and <out>.csv")
       ->capture_default_str();
   app.add_option("--variants", opt.variants,
-                 "scene variants: plain, far-shapes, big-domain, neo-hookean (pay-for-use pairs)")
+                 "scene variants: plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough (pay-for-use pairs)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--bandwidth-mib", opt.bandwidthMiB,

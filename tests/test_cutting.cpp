@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <memory>
 #include <numeric>
 #include <vector>
@@ -107,7 +108,8 @@ void runFor(Scene& scene, double t) {
 PartView bladePart(const QuadSlicerDesc& d, float dx) {
   std::vector<BodyView> bodies;
   std::vector<PartView> parts;
-  appendSlicer(d, {d.pose, d.linearVelocity, d.angularVelocity}, 0.5f * dx, {0.f, 0.f, 0.f}, bodies, parts);
+  appendSlicer(d, {d.pose, d.linearVelocity, d.angularVelocity}, 0.5f * dx, {0.f, 0.f, 0.f}, nullptr, nullptr, bodies,
+               parts);
   return parts[0];
 }
 
@@ -123,7 +125,7 @@ TEST(CutSideTest, StraddlingPairsAreFlaggedForAQuad) {
   for (float z : {-0.012f, -0.004f, 0.001f, 0.0031f, 0.0045f, 0.011f, 0.0151f}) {
     const Vec3f x{0.0013f, 0.f, z};
     CutPlane cut;
-    recordCut(cut, x, p, 1.5f * kDx);
+    recordCut(cut, x, p, kDx);
     const bool near = std::fabs(z - kCutZ) <= 1.5f * kDx;
     ASSERT_EQ(isCut(cut), near) << "z = " << z;
     if (!near) continue;
@@ -152,16 +154,88 @@ TEST(CutSideTest, NothingIsRecordedPastTheEdgeOrAtTheSpine) {
   // beside the blade, between the edge and the spine's reach: cut
   for (float y : {0.0005f, 0.05f, 0.0895f}) {
     CutPlane cut;
-    recordCut(cut, {0.f, y, kCutZ + 0.004f}, p, 1.5f * kDx);
+    recordCut(cut, {0.f, y, kCutZ + 0.004f}, p, kDx);
     EXPECT_TRUE(isCut(cut)) << "y = " << y;
   }
   // ahead of the edge, within the spine's radius, past the spine, past the blade's ends
   for (Vec3f x : {Vec3f{0.f, -0.0005f, kCutZ + 0.004f}, Vec3f{0.f, 0.0905f, kCutZ + 0.004f},
                   Vec3f{0.f, 0.105f, kCutZ + 0.004f}, Vec3f{0.0605f, 0.05f, kCutZ + 0.004f}}) {
     CutPlane cut;
-    recordCut(cut, x, p, 1.5f * kDx);
+    recordCut(cut, x, p, kDx);
     EXPECT_FALSE(isCut(cut)) << "at (" << x.x << ", " << x.y << ", " << x.z << ")";
   }
+}
+
+// A curved blade: part of a cylinder of radius kArcRadius about the vertical axis through
+// (0, ., kArcCentreZ), from angle -50 to +50 degrees (x = R sin a, z = zc + R cos a), its
+// edge at y = 0 and its spine 10 cm above. Through the block it bows 1.4 cm: z = 5 mm at
+// x = 0, -8.8 mm at the block's sides.
+constexpr float kArcRadius = 0.065f, kArcCentreZ = -0.06f;
+MeshSlicerDesc arcBlade(float edgeY, Vec3f velocity = {0.f, 0.f, 0.f}) {
+  MeshSlicerDesc d;
+  const int n = 24;
+  for (int i = 0; i <= n; ++i) {
+    const float a = (-50.f + 100.f * i / n) * 3.14159265f / 180.f;
+    for (float y : {0.f, 0.1f}) d.blade.vertices.push_back({kArcRadius * std::sin(a), y, kArcCentreZ + kArcRadius * std::cos(a)});
+  }
+  for (uint32_t i = 0; i < (uint32_t)n; ++i) {
+    const uint32_t a = 2 * i, b = 2 * i + 1, c = 2 * i + 2, e = 2 * i + 3;
+    for (uint32_t v : {a, c, b, b, c, e}) d.blade.indices.push_back(v);
+  }
+  d.spineRadius = 0.f;
+  d.pose.position = {0.f, edgeY, 0.f};
+  d.linearVelocity = velocity;
+  return d;
+}
+/// Distance of x from the arc's cylinder, outside positive.
+float arcSide(Vec3f x) { return std::hypot(x.x, x.z - kArcCentreZ) - kArcRadius; }
+
+TEST(CutSideTest, StraddlingPairsAreFlaggedForACurvedBlade) {
+  const MeshSlicerDesc d = arcBlade(-0.05f);
+  CurvedBlade curved;
+  curved.grid = std::make_shared<const SignedDistanceGrid>(buildBladeGrid(d.blade, 0.25f * kDx, 3.f * kDx));
+  std::vector<BodyView> bodies;
+  std::vector<PartView> parts;
+  appendSlicer(commonFields(d), {d.pose, d.linearVelocity, d.angularVelocity}, 0.5f * kDx, {0.f, 0.f, 0.f}, &curved,
+               curved.grid->values.data(), bodies, parts);
+  const PartView& p = parts[0];
+  ASSERT_EQ(p.type, kPartCurvedBlade);
+  GridGeometry geo;
+  geo.lower = {-0.1f, -0.1f, -0.1f};
+  geo.dx = kDx;
+  geo.invDx = 1.f / kDx;
+  for (int a = 0; a < 3; ++a) geo.cells[a] = 20, geo.blocks[a] = 6;
+  int recorded = 0, checked = 0, wrong = 0;
+  for (float x = -0.03f; x <= 0.03f; x += 0.0071f)
+    for (float off : {-0.012f, -0.006f, -0.001f, 0.002f, 0.007f, 0.013f}) {
+      // a particle `off` from the arc along its radius
+      const float a = std::asin(x / kArcRadius);
+      const Vec3f xp{(kArcRadius + off) * std::sin(a), 0.f, kArcCentreZ + (kArcRadius + off) * std::cos(a)};
+      CutPlane cut;
+      recordCurvedCut(cut, xp, p, geo);
+      ASSERT_TRUE(isCut(cut)) << "x " << x << " off " << off;
+      ++recorded;
+      EXPECT_LE(cut.offset, std::fabs(off) + 5e-5f);  // the facets' sag
+      const QuadraticStencil st(geo, xp);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          for (int k = 0; k < 3; ++k) {
+            const Vec3f node = geo.lower + kDx * Vec3f{(float)(st.base[0] + i), (float)(st.base[1] + j),
+                                                      (float)(st.base[2] + k)};
+            // every node across the arc is across the particle's plane (nodes within the
+            // facets' sag, 4.3e-5 m, of the arc may go either way)
+            if (std::fabs(arcSide(node)) < 5e-5f) continue;
+            ++checked;
+            wrong += arcSide(node) * off < 0.f && sameSide(cut, node - xp);
+          }
+    }
+  std::printf("[cut] curved blade: %d particles recorded, %d stencil nodes checked, %d across the arc but not the plane\n",
+              recorded, checked, wrong);
+  EXPECT_EQ(wrong, 0);
+  // past the arc's ends there is no blade: nothing recorded
+  CutPlane past;
+  recordCurvedCut(past, {0.06f, 0.f, kArcCentreZ + 0.035f}, p, geo);
+  EXPECT_FALSE(isCut(past));
 }
 
 // ---------------------------------------------------------------------------------------
@@ -171,15 +245,18 @@ class Cutting : public ::testing::TestWithParam<SolverType> {
   SolverType solver() const { return GetParam(); }
 };
 
-// A blade stands through the whole block. A kinematic plate pushes the far half (z > cut)
+// A blade stands through the whole block. A kinematic plate pushes the far side (z > cut)
 // toward it. The near half must not feel it: its particles end bit for bit as they do with
 // the plate at rest, so no mass or momentum crossed the blade. After every step no particle
 // lies inside the blade's band.
-TEST_P(Cutting, NothingCrossesTheBlade) {
+void nothingCrosses(SolverType solver, bool curved) {
   auto run = [&](float plateSpeed, std::vector<Vec3f>& x, std::vector<Vec3f>& v, float& inBand) {
-    Scene scene(settingsFor(solver()));
+    Scene scene(settingsFor(solver));
     const ParticleObjectId id = scene.addParticleObject(block());
-    scene.addSlicer(blade(-0.05f));
+    if (curved)
+      scene.addSlicer(arcBlade(-0.05f));
+    else
+      scene.addSlicer(blade(-0.05f));
     ShapeDesc plate;
     plate.parts.push_back(Geometry::box({0.06f, 0.04f, 0.01f}));
     plate.pose.position = {0.f, 0.f, kBlockHalf.z + 0.01f};
@@ -189,7 +266,7 @@ TEST_P(Cutting, NothingCrossesTheBlade) {
     for (int i = 0; i < 24; ++i) {
       scene.step(1.f / 120.f);
       scene.readPositions(id, x);
-      for (const Vec3f& p : x) inBand = std::max(inBand, 0.5f * kDx - std::fabs(p.z - kCutZ));
+      for (const Vec3f& p : x) inBand = std::max(inBand, 0.5f * kDx - std::fabs(curved ? arcSide(p) : p.z - kCutZ));
     }
     scene.readVelocities(id, v);
   };
@@ -199,23 +276,32 @@ TEST_P(Cutting, NothingCrossesTheBlade) {
   run(0.05f, x1, v1, band1);
   ASSERT_EQ(x0.size(), x1.size());
   int nearHalf = 0, differ = 0;
-  float farSpeed = 0.f;
+  float farSpeed = 0.f, nearChange = 0.f;
   for (size_t i = 0; i < x0.size(); ++i) {
-    if (x0[i].z < kCutZ) {
+    if (curved ? arcSide(x0[i]) < 0.f : x0[i].z < kCutZ) {
       ++nearHalf;
+      nearChange = std::max(nearChange, norm(v1[i] - v0[i]));
       differ += x0[i].x != x1[i].x || x0[i].y != x1[i].y || x0[i].z != x1[i].z || v0[i].x != v1[i].x ||
                 v0[i].y != v1[i].y || v0[i].z != v1[i].z;
     } else {
       farSpeed = std::max(farSpeed, norm(v1[i]));
     }
   }
-  std::printf("[cut] %s: near half %d particles, %d differ; far half fastest %.4f m/s; deepest in band %.2e m\n",
-              test::solverName(solver()).c_str(), nearHalf, differ, farSpeed, std::max(band0, band1));
+  std::printf("[cut] %s %s blade: near side %d particles, %d differ (by up to %.2e m/s); far side fastest %.4f m/s; "
+              "deepest in band %.2e m\n",
+              test::solverName(solver).c_str(), curved ? "curved" : "quad", nearHalf, differ, nearChange, farSpeed,
+              std::max(band0, band1));
   EXPECT_GT(nearHalf, 0);
-  EXPECT_EQ(differ, 0) << "particles of the near half changed when only the far half was pushed";
-  EXPECT_GT(farSpeed, 0.01f) << "the plate did push the far half";
-  EXPECT_LE(std::max(band0, band1), 1e-6f) << "a particle ended inside the blade's band";
+  EXPECT_EQ(differ, 0) << "particles of the near side changed when only the far side was pushed";
+  EXPECT_GT(farSpeed, 0.01f) << "the plate did push the far side";
+  // the curved blade is a mesh of 24 facets: the arc lies up to their sag, 4.3e-5 m, off it
+  EXPECT_LE(std::max(band0, band1), curved ? 5e-5f : 1e-6f) << "a particle ended inside the blade's band";
 }
+
+TEST_P(Cutting, NothingCrossesTheBlade) { nothingCrosses(solver(), false); }
+// The same with the curved blade through the block: its two sides are the arc's inside and
+// outside.
+TEST_P(Cutting, NothingCrossesACurvedBlade) { nothingCrosses(solver(), true); }
 
 // A blade moving down through the block: one piece while it is on its way, two once its edge
 // has passed the bottom. Stopped half way, the cut ends where the edge stopped: no bond
@@ -506,6 +592,43 @@ TEST(CuttingConvergence, TheToughnessForceHoldsWithHalfTheCellSize) {
   std::printf("[cut] MlsMpm G_c 50 J/m^2, depth 20 mm: dx 10 mm %.4f N, dx 5 mm %.4f N (%+.1f %%)\n", coarse, fine,
               100.0 * (fine / coarse - 1.0));
   EXPECT_LT(std::fabs(fine / coarse - 1.0), 0.15);
+}
+
+// A curved blade moved down through the block cuts it along its curve: two pieces, each on
+// one side of the arc's cylinder (no particle of a piece on the other side).
+TEST_P(Cutting, ACurvedBladeCutsAlongItsCurve) {
+  Scene scene(settingsFor(solver()));
+  const ParticleObjectId id = scene.addParticleObject(block());
+  scene.addSlicer(arcBlade(kBlockHalf.y + 0.01f, {0.f, -0.2f, 0.f}));
+  runFor(scene, 0.35);
+  std::vector<Vec3f> x;
+  scene.readPositions(id, x);
+  // the pieces, and how many of each piece's particles lie inside the arc's cylinder
+  const float link = 1.5f * 0.5f * kDx;
+  std::vector<size_t> parent(x.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (size_t i = 0; i < x.size(); ++i)
+    for (size_t j = i + 1; j < x.size(); ++j) {
+      const Vec3f d = x[i] - x[j];
+      if (dot(d, d) < link * link) parent[find(i)] = find(j);
+    }
+  std::map<size_t, std::pair<int, int>> inOut;  // root -> (inside, outside)
+  float closest = 1.f;
+  for (size_t i = 0; i < x.size(); ++i) {
+    auto& c = inOut[find(i)];
+    (arcSide(x[i]) < 0.f ? c.first : c.second)++;
+    closest = std::min(closest, std::fabs(arcSide(x[i])));
+  }
+  int mixed = 0;
+  for (const auto& c : inOut) mixed += std::min(c.second.first, c.second.second);
+  std::printf("[cut] %s curved blade: %zu piece(s), %d particles on the wrong side of the arc, nearest %.2f mm\n",
+              test::solverName(solver()).c_str(), inOut.size(), mixed, closest * 1e3);
+  EXPECT_EQ(inOut.size(), 2u);
+  EXPECT_EQ(mixed, 0);
 }
 
 INSTANTIATE_TEST_SUITE_P(GridSolvers, Cutting, test::allSolvers(), test::solverParamName());

@@ -135,7 +135,24 @@ class SceneImpl {
       throw InvalidArgument("SceneSettings.solver", "Mtled",
                             "cannot cut: slicers need a grid solver (MlsMpm, StandardMpm or PbMpm)");
     validateSlicerDesc(d);
-    return slicers.add({d, {d.pose, d.linearVelocity, d.angularVelocity}, {}});
+    return slicers.add({d, {d.pose, d.linearVelocity, d.angularVelocity}, {}, nullptr});
+  }
+
+  SlicerId addSlicer(const MeshSlicerDesc& d) {
+    requireIdle("addSlicer");
+    if (solverTraits(settings.solver).meshless)
+      throw InvalidArgument("SceneSettings.solver", "Mtled",
+                            "cannot cut: slicers need a grid solver (MlsMpm, StandardMpm or PbMpm)");
+    validateSlicerDesc(d);
+    auto curved = std::make_shared<CurvedBlade>();
+    // sampled to where a particle can be recorded (up to 2.6 dx: maxStencilReach) and the
+    // faces' band and resting reach touch a node (1.15 dx), beyond the blade's own thickness
+    const float spacing = d.sampleSpacing > 0.f ? d.sampleSpacing : 0.25f * settings.dx;
+    curved->grid = std::make_shared<const SignedDistanceGrid>(
+        buildBladeGrid(d.blade, spacing, d.halfThickness + 3.f * settings.dx));
+    curved->spineFrom = d.spineFrom;
+    curved->spineTo = d.spineTo;
+    return slicers.add({commonFields(d), {d.pose, d.linearVelocity, d.angularVelocity}, {}, std::move(curved)});
   }
 
   void advance(float dt) {
@@ -317,6 +334,7 @@ ShapeImpulse Scene::shapeImpulse(ShapeId id) const {
   return impl_->shapes.lookup(id, "shapeImpulse").lastImpulse;
 }
 SlicerId Scene::addSlicer(const QuadSlicerDesc& d) { return impl_->addSlicer(d); }
+SlicerId Scene::addSlicer(const MeshSlicerDesc& d) { return impl_->addSlicer(d); }
 void Scene::removeSlicer(SlicerId id) {
   impl_->requireIdle("removeSlicer");
   impl_->slicers.lookup(id, "removeSlicer");

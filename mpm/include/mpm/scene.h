@@ -106,6 +106,9 @@ class Scene {
   /// the particle state and of checkpoints). Grid solvers only: with SolverType::Mtled it
   /// throws InvalidArgument on SceneSettings.solver; a bad field throws naming it.
   SlicerId addSlicer(const QuadSlicerDesc& desc);
+  /// A curved blade from an open mesh; its sided distance is sampled here (refused, naming
+  /// the field, for a mesh that is empty or not consistently oriented).
+  SlicerId addSlicer(const MeshSlicerDesc& desc);
   /// Removes a slicer; the cuts it made stay.
   void removeSlicer(SlicerId id);
   bool isValid(SlicerId id) const;

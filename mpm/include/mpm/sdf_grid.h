@@ -58,4 +58,17 @@ struct SignedDistanceGrid {
 /// or a non-positive cell size.
 SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellSize, int paddingCells = 3);
 
+/// Value of a blade grid (buildBladeGrid) where there is no blade to be beside.
+constexpr float kNoBlade = 1e30f;
+
+/// The sided distance to an open, consistently oriented mesh (a curved blade), sampled on a
+/// grid of `cellSize` [m] reaching `reach` [m] beyond the mesh: where the point nearest a
+/// sample lies inside the mesh (on a face or an edge between two faces), the distance with
+/// the sign of the side the sample is on (+: the side the triangles' counter-clockwise
+/// normals face, from the nearest feature's angle-weighted pseudo-normal); where it lies on
+/// the mesh's boundary (past an edge or end of the blade) kNoBlade. Throws InvalidArgument
+/// for an empty mesh, bad indices, a non-positive cell size, or a mesh whose triangles are
+/// not consistently oriented (or share an edge among more than two).
+SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, float reach);
+
 }  // namespace mpm

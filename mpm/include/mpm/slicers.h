@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <limits>
 
+#include "mpm/sdf_grid.h"
 #include "mpm/shapes.h"
 
 namespace mpm {
@@ -27,6 +28,27 @@ struct QuadSlicerDesc {
   Pose pose;
   Vec3f linearVelocity{0.f, 0.f, 0.f};   ///< of the frame's origin [m/s]
   Vec3f angularVelocity{0.f, 0.f, 0.f};  ///< [rad/s], world frame
+};
+
+/// A curved blade: an open triangle mesh in the slicer's frame, its triangles consistently
+/// oriented (a scalpel's belly, a curved knife; from a file through
+/// mpm::bullet::loadTriangleMesh). Material beside the mesh, where the point of the mesh
+/// nearest it lies inside the mesh, is cut: the mesh's boundary cuts (there is no surface
+/// past it) and only the spine, a round bar along a segment, is blunt. The side a particle
+/// is on follows the curve (the nearest feature's normal), so a curved blade cuts along its
+/// curve. The resistance to cutting (Material::fractureToughness) applies to quad blades
+/// only for now.
+struct MeshSlicerDesc {
+  TriangleMesh blade;  ///< [m], in the slicer's frame
+  Vec3f spineFrom{0.f, 0.f, 0.f}, spineTo{0.f, 0.f, 0.f};  ///< the spine's axis, slicer frame [m]
+  float spineRadius = 0.f;    ///< [m]; 0: no spine
+  float halfThickness = 0.f;  ///< as QuadSlicerDesc
+  float friction = 0.f;       ///< as QuadSlicerDesc
+  /// Spacing of the blade's sampled distance [m]; 0: a quarter of the grid's dx.
+  float sampleSpacing = 0.f;
+  Pose pose;
+  Vec3f linearVelocity{0.f, 0.f, 0.f};
+  Vec3f angularVelocity{0.f, 0.f, 0.f};
 };
 
 /// Handle to a slicer.

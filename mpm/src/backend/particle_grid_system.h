@@ -51,16 +51,18 @@ struct RecordCuts {
   const MaterialParams* materials;
   BladeImpulse* impulses;  ///< [blade * P.count + particle]; null: no toughness in the scene
   Vec3f* push;             ///< [particle], with `impulses`
-  float dx, dt;
+  GridGeometry geo;
+  float dt;
   MPM_HD void operator()(size_t i) const {
-    // a particle farther from the blade's plane than its stencil's reach has no node across
-    const float reach = 1.5f * dx;
+    const float dx = geo.dx;
     if (push) push[i] = Vec3f{0.f, 0.f, 0.f};
     for (int b = 0, blade = 0; b < nParts; ++b) {
-      if (parts[b].type != kPartBlade) continue;
       const PartView& part = parts[b];
+      if (part.type == kPartCurvedBlade && part.mayTouch(P.x[i], P.x[i]))
+        recordCurvedCut(P.cut[i], P.x[i], part, geo);
+      if (part.type != kPartBlade) continue;
       if (part.mayTouch(P.x[i], P.x[i])) {
-        recordCut(P.cut[i], P.x[i], part, reach);
+        recordCut(P.cut[i], P.x[i], part, dx);
         const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
         if (gc > 0.f) {
           const Vec3f f =
@@ -164,9 +166,11 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
     ShapeBackend<Exec>::setShapes(bodies, parts);
     bladeBodies_.clear();
-    for (const PartView& p : parts)
-      if (p.type == kPartBlade) bladeBodies_.push_back(p.body);
-    blades_ = !bladeBodies_.empty();
+    blades_ = false;
+    for (const PartView& p : parts) {
+      if (p.type == kPartBlade) bladeBodies_.push_back(p.body);  // the resistance to cutting: quad blades
+      blades_ = blades_ || isBlade(p.type);
+    }
     everCut_ = everCut_ || blades_;
     // the resistance to cutting, per particle and blade, summed over the advance
     const size_t n = toughness_ ? bladeBodies_.size() * count_ : 0;
@@ -271,7 +275,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     pushing_ = bladeImpulses_.size() > 0;
     BladeImpulse* impulses = pushing_ ? bladeImpulses_.data() : nullptr;
     exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), shapes_.bodies(), materials_.data(),
-                                              impulses, pushing_ ? push_.data() : nullptr, geo_.dx, dt});
+                                              impulses, pushing_ ? push_.data() : nullptr, geo_, dt});
     timings.contact += seconds(t0);
   }
 

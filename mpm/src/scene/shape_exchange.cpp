@@ -56,7 +56,14 @@ BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const
     if (!slicers.alive(i)) continue;
     map.slicers[i] = (int)bodies.size();
     // the faces push the material out of a band of half a cell (the gap a cut opens)
-    appendSlicer(slicers[i].desc, slicers[i].state, 0.5f * settings.dx, domainCentre(settings), bodies, parts);
+    const CurvedBlade* curved = slicers[i].curved.get();
+    const float* values = nullptr;
+    if (curved) {
+      meshes.push_back(curved->grid.get());
+      values = backend.meshValues(curved->grid);
+    }
+    appendSlicer(slicers[i].desc, slicers[i].state, 0.5f * settings.dx, domainCentre(settings), curved, values, bodies,
+                 parts);
   }
   backend.releaseMeshesExcept(meshes);
   backend.setShapes(bodies, parts);

@@ -1,10 +1,12 @@
 #pragma once
 // The rigid shapes between advances: the scene's records, handed to the backend as bodies
 // and parts before an advance and read back from it after.
+#include <memory>
 #include <vector>
 
 #include "backend/sim_backend.h"
 #include "scene/slot_table.h"
+#include "shapes/shape_builder.h"
 
 namespace mpm {
 
@@ -16,11 +18,13 @@ struct ShapeRecord {
 };
 using ShapeTable = SlotTable<ShapeRecord, ShapeId>;
 
-/// A slicer as the scene keeps it (kinematic: its state is the caller's).
+/// A slicer as the scene keeps it (kinematic: its state is the caller's). A curved one has
+/// its geometry in `curved` and the common fields in `desc`.
 struct SlicerRecord {
   QuadSlicerDesc desc;
   ShapeState state;
   ShapeImpulse lastImpulse;
+  std::shared_ptr<const CurvedBlade> curved;
 };
 using SlicerTable = SlotTable<SlicerRecord, SlicerId>;
 

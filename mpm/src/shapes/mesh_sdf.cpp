@@ -33,6 +33,7 @@
 #include <cstdint>
 #include <cstdlib>
 #include <limits>
+#include <map>
 #include <sstream>
 #include <string>
 #include <unordered_map>
@@ -656,6 +657,120 @@ Vec3f SignedDistanceGrid::gradient(Vec3f p) const {
     for (int a = 0; a < 3; ++a)
       if (away[a] != 0.f) g[a] = away[a] / distance;
   return g;
+}
+
+namespace {
+
+/// The point of triangle t nearest p (Ericson 5.1.5) and its feature: 0 the face, 1 + e the
+/// edge e (ab, bc, ca), 4 + v the vertex v (a, b, c).
+Vec3d closestOnTriangle(Vec3d p, const Triangle& t, int& feature) {
+  const Vec3d ap = p - t.a;
+  const double d1 = dot(t.ab, ap), d2 = dot(t.ac, ap);
+  if (d1 <= 0 && d2 <= 0) return feature = 4, t.a;
+  const Vec3d bp = p - t.b;
+  const double d3 = dot(t.ab, bp), d4 = dot(t.ac, bp);
+  if (d3 >= 0 && d4 <= d3) return feature = 5, t.b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return feature = 1, t.a + (d1 / (d1 - d3)) * t.ab;
+  const Vec3d cp = p - t.c;
+  const double d5 = dot(t.ab, cp), d6 = dot(t.ac, cp);
+  if (d6 >= 0 && d5 <= d6) return feature = 6, t.c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return feature = 3, t.a + (d2 / (d2 - d6)) * t.ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return feature = 2, t.b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (t.c - t.b);
+  const double denom = 1.0 / (va + vb + vc);
+  feature = 0;
+  return t.a + (vb * denom) * t.ab + (vc * denom) * t.ac;
+}
+
+}  // namespace
+
+SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, float reach) {
+  validateMesh(mesh);
+  if (!(cellSize > 0.f) || !std::isfinite(cellSize)) throw InvalidArgument("cellSize", show(cellSize), "must be > 0");
+  const WatertightReport report = checkWatertight(mesh);
+  if (report.misorientedEdges > 0 || report.nonManifoldEdges > 0)
+    throw InvalidArgument("MeshSlicerDesc.blade", report.reason,
+                          "a blade's triangles must be consistently oriented, each edge shared by at most two "
+                          "(the side a particle is on comes from their normals)");
+  const size_t nTri = mesh.triangleCount();
+  std::vector<Triangle> tris(nTri);
+  for (size_t t = 0; t < nTri; ++t)
+    tris[t] = Triangle(toDouble(mesh.vertices[mesh.indices[3 * t]]), toDouble(mesh.vertices[mesh.indices[3 * t + 1]]),
+                       toDouble(mesh.vertices[mesh.indices[3 * t + 2]]));
+  // edges (by their vertices) and the faces on them; vertex pseudo-normals (angle-weighted)
+  std::map<std::pair<uint32_t, uint32_t>, std::vector<size_t>> edgeFaces;
+  std::vector<Vec3d> vertexNormal(mesh.vertices.size(), Vec3d{});
+  for (size_t t = 0; t < nTri; ++t)
+    for (int e = 0; e < 3; ++e) {
+      const uint32_t a = mesh.indices[3 * t + e], b = mesh.indices[3 * t + (e + 1) % 3];
+      edgeFaces[{std::min(a, b), std::max(a, b)}].push_back(t);
+      const Vec3d u = toDouble(mesh.vertices[b]) - toDouble(mesh.vertices[a]);
+      const Vec3d w = toDouble(mesh.vertices[mesh.indices[3 * t + (e + 2) % 3]]) - toDouble(mesh.vertices[a]);
+      const double angle = std::acos(std::clamp(dot(u, w) / std::max(norm(u) * norm(w), 1e-300), -1.0, 1.0));
+      vertexNormal[a] = vertexNormal[a] + angle * tris[t].unitNormal;
+    }
+  std::vector<bool> boundaryVertex(mesh.vertices.size(), false);
+  for (const auto& e : edgeFaces)
+    if (e.second.size() == 1) boundaryVertex[e.first.first] = boundaryVertex[e.first.second] = true;
+
+  Box3d bounds;
+  for (uint32_t index : mesh.indices) bounds.grow(toDouble(mesh.vertices[index]));
+  SignedDistanceGrid grid;
+  grid.cellSize = cellSize;
+  const int pad = (int)std::ceil(reach / cellSize) + 1;
+  double samples = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double cells = std::ceil((bounds.hi[a] - bounds.lo[a]) / cellSize - 1e-4) + 2.0 * pad;
+    if (cells + 1 > kMaxDim) throw InvalidArgument("cellSize", show(cellSize), "gives too many samples along an axis");
+    grid.dims[a] = (int)cells + 1;
+    samples *= grid.dims[a];
+    const double lower = 0.5 * (bounds.lo[a] + bounds.hi[a]) - 0.5 * cells * cellSize;
+    (a == 0 ? grid.lower.x : a == 1 ? grid.lower.y : grid.lower.z) = (float)lower;
+  }
+  if (samples > kMaxSamples) throw InvalidArgument("cellSize", show(cellSize), "gives too many grid samples");
+  grid.values.resize((size_t)samples);
+  const Vec3d lower = toDouble(grid.lower);
+#if defined(_OPENMP)
+#pragma omp parallel for schedule(dynamic, 1)
+#endif
+  for (int i = 0; i < grid.dims[0]; ++i)
+    for (int j = 0; j < grid.dims[1]; ++j)
+      for (int k = 0; k < grid.dims[2]; ++k) {
+        const Vec3d p = lower + Vec3d{cellSize * (double)i, cellSize * (double)j, cellSize * (double)k};
+        double best = std::numeric_limits<double>::infinity();
+        size_t bestTri = 0;
+        int bestFeature = 0;
+        Vec3d bestPoint{};
+        for (size_t t = 0; t < nTri; ++t) {
+          int feature;
+          const Vec3d q = closestOnTriangle(p, tris[t], feature);
+          const Vec3d d = p - q;
+          const double d2 = dot(d, d);
+          if (d2 < best) best = d2, bestTri = t, bestFeature = feature, bestPoint = q;
+        }
+        // the nearest feature: on the boundary there is no blade beside the sample
+        Vec3d normal = tris[bestTri].unitNormal;
+        bool boundary = false;
+        if (bestFeature >= 1 && bestFeature <= 3) {
+          const int e = bestFeature == 1 ? 0 : bestFeature == 2 ? 1 : 2;  // ab, bc, ca
+          const uint32_t a = mesh.indices[3 * bestTri + e], b = mesh.indices[3 * bestTri + (e + 1) % 3];
+          const std::vector<size_t>& faces = edgeFaces[{std::min(a, b), std::max(a, b)}];
+          boundary = faces.size() == 1;
+          normal = Vec3d{};
+          for (size_t f : faces) normal = normal + tris[f].unitNormal;
+        } else if (bestFeature >= 4) {
+          const uint32_t v = mesh.indices[3 * bestTri + (bestFeature - 4)];
+          boundary = boundaryVertex[v];
+          normal = vertexNormal[v];
+        }
+        const double side = dot(p - bestPoint, normal) >= 0 ? 1.0 : -1.0;
+        grid.values[((size_t)i * grid.dims[1] + j) * grid.dims[2] + k] =
+            boundary ? kNoBlade : (float)(side * std::sqrt(best));
+      }
+  return grid;
 }
 
 }  // namespace mpm

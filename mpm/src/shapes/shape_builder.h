@@ -1,5 +1,6 @@
 #pragma once
 // From the public ShapeDesc to the kernels' BodyView and PartViews, with validation.
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,11 +32,26 @@ void appendParts(const ShapeDesc& desc, const ShapeState& state, int bodyIndex, 
 
 /// Throws InvalidArgument naming the field for any invalid value of a slicer.
 void validateSlicerDesc(const QuadSlicerDesc& desc);
+/// Throws InvalidArgument naming the field for any invalid value of a curved slicer
+/// (its mesh is checked when its grid is built).
+void validateSlicerDesc(const MeshSlicerDesc& desc);
+/// The common fields of a curved slicer, as the quad's (halfLength and width unused).
+QuadSlicerDesc commonFields(const MeshSlicerDesc& desc);
+
+/// A curved blade's geometry: its sampled sided distance (buildBladeGrid), the backend's
+/// copy of its values, and its spine's axis in the slicer's frame.
+struct CurvedBlade {
+  std::shared_ptr<const SignedDistanceGrid> grid;
+  Vec3f spineFrom, spineTo;
+};
+
 /// A slicer as two kinematic bodies, appended to `bodies` and `parts`: its blade's faces
-/// (frictional, a kPartBlade grown by `faceBand` [m] on each face) and its spine (a
-/// sticky capsule). Anchored near `near` as makePart anchors.
+/// (frictional; a kPartBlade, or with `curved` a kPartCurvedBlade whose values are
+/// `curvedValues`, grown by `faceBand` [m] on each face) and its spine (a sticky capsule;
+/// none for a curved blade of spine radius 0). Anchored near `near` as makePart anchors.
 void appendSlicer(const QuadSlicerDesc& desc, const ShapeState& state, float faceBand, Vec3f near,
-                  std::vector<BodyView>& bodies, std::vector<PartView>& parts);
+                  const CurvedBlade* curved, const float* curvedValues, std::vector<BodyView>& bodies,
+                  std::vector<PartView>& parts);
 
 /// The part without its mesh pointer (kept non-template for the .cpp).
 PartView makePart(const Geometry& g, const ShapeDesc& desc, const ShapeState& state, int bodyIndex,

@@ -3,14 +3,21 @@
 // parts (one primitive each, placed in a body). Grid contact follows DESIGN section 5 /
 // seed 000 eqs. 17-18; the momentum it removes from the grid goes to the body.
 #include "mpm/math.h"
+#include "mpm/sdf_grid.h"
 #include "shapes/sdf_primitives.h"
 
 namespace mpm {
 
 enum : int { kContactFrictional = 0, kContactSticky = 1, kContactBonded = 2 };
-/// kPartBlade: a slicer's faces (sdfBladeFaces); its box is faceLower/faceUpper like a
+/// kPartBlade: a quad slicer's faces (sdfBladeFaces); its box is faceLower/faceUpper like a
 /// Box's, with the edge at faceLower.y and `radius` the spine's (solvers/cut_transfer.h).
-enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh, kPartBlade };
+/// kPartCurvedBlade: a mesh slicer's faces, its sided distance sampled like a Mesh part's
+/// (buildBladeGrid), `bladeHalf` thick each side; the spine's axis runs from faceLower to
+/// faceUpper, `radius` its radius.
+enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh, kPartBlade, kPartCurvedBlade };
+
+/// Whether a part is a slicer's blade (it cuts what it passes).
+MPM_HD bool isBlade(int type) { return type == kPartBlade || type == kPartCurvedBlade; }
 
 /// Rigid motion and contact model of one shape.
 struct BodyView {
@@ -80,6 +87,18 @@ struct PartView {
   /// 4.5 cells into soft tissue under its own weight, and still did with a 0.5 dx minimum.
   /// The cost: material rests on it as on a part of half-thickness 0.75 dx.
   float band = 0.f;
+  float bladeHalf = 0.f;  ///< kPartCurvedBlade: the faces' half-thickness to the grid [m]
+
+  /// The sided distance of a curved blade at p (part frame) and the unit normal toward p's
+  /// side; false where no blade is beside p (buildBladeGrid's kNoBlade within reach).
+  MPM_HD bool curvedBladeAt(Vec3f p, float& sided, Vec3f& n) const {
+    Vec3f g;
+    sided = sdfGridSample(sdfValues, sdfDims, sdfLower, sdfCell, p, g);
+    const float len = norm(g);
+    if (!(sided < 1e-10f * kNoBlade) || !(len > 1e-12f)) return false;
+    n = (sided >= 0.f ? 1.f / len : -1.f / len) * g;
+    return true;
+  }
 
   /// Signed distance [m] and outward unit normal (world) at world point x.
   MPM_HD float distance(Vec3f x, Vec3f& n) const {
@@ -98,6 +117,12 @@ struct PartView {
         break;
       }
       case kPartBlade: d = sdfBladeFaces(p, faceLower, faceUpper, nl); break;
+      case kPartCurvedBlade: {
+        float sided;
+        d = curvedBladeAt(p, sided, nl) ? fabsf(sided) - bladeHalf : kNoSurface;
+        if (d == kNoSurface) nl = Vec3f{0.f, 1.f, 0.f};
+        break;
+      }
       case kPartBox:
       default: d = sdfBoxFaces(p, faceLower, faceUpper, nl); break;
     }

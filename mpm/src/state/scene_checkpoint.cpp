@@ -132,12 +132,44 @@ void readShapes(Reader& r, ShapeTable& shapes) {
 
 void writeSlicers(Writer& w, const SlicerTable& slicers) {
   w.section("slicers");
-  slicers.save(w, [](Writer& out, const SlicerRecord& s) { out.put(s); });
+  slicers.save(w, [](Writer& out, const SlicerRecord& s) {
+    out.put(s.desc);
+    out.put(s.state);
+    out.put(s.lastImpulse);
+    out.put((uint8_t)(s.curved ? 1 : 0));
+    if (!s.curved) return;
+    const SignedDistanceGrid& g = *s.curved->grid;
+    out.put(g.lower);
+    out.put(g.cellSize);
+    out.put(g.dims);
+    out.putArray(g.values);
+    out.put(s.curved->spineFrom);
+    out.put(s.curved->spineTo);
+  });
 }
 
 void readSlicers(Reader& r, SlicerTable& slicers) {
   r.section("slicers");
-  slicers.load(r, [](Reader& in) { return in.get<SlicerRecord>("a slicer"); });
+  slicers.load(r, [](Reader& in) {
+    SlicerRecord s;
+    s.desc = in.get<QuadSlicerDesc>("a slicer");
+    s.state = in.get<ShapeState>("a slicer's state");
+    s.lastImpulse = in.get<ShapeImpulse>("a slicer's impulse");
+    if (in.get<uint8_t>("a slicer's kind") == 0) return s;
+    auto grid = std::make_shared<SignedDistanceGrid>();
+    grid->lower = in.get<Vec3f>("a curved blade's grid");
+    grid->cellSize = in.get<float>("a curved blade's grid");
+    in.getInto(grid->dims, "a curved blade's grid");
+    in.getArray(grid->values, "a curved blade's grid");
+    if ((size_t)grid->dims[0] * grid->dims[1] * grid->dims[2] != grid->values.size())
+      throw CheckpointError(CheckpointError::Reason::Truncated, "a curved blade's grid does not match its size");
+    auto curved = std::make_shared<CurvedBlade>();
+    curved->grid = std::move(grid);
+    curved->spineFrom = in.get<Vec3f>("a curved blade's spine");
+    curved->spineTo = in.get<Vec3f>("a curved blade's spine");
+    s.curved = std::move(curved);
+    return s;
+  });
 }
 
 void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless) {
