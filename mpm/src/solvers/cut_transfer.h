@@ -18,6 +18,15 @@
 // so the momentum of the grid and of the particles together is conserved.
 #include "solvers/transfer.h"
 
+// The transfers of a cut particle are called out of line: inlined into the solvers' kernels,
+// the sided stencil's arrays slowed MLS-MPM's P2G of a scene without any cut by a third
+// (125k particles, 1 thread: 144 against 109 ms a frame).
+#if defined(__CUDACC__)
+#define MPM_HD_OUTLINE __host__ __device__ __noinline__
+#else
+#define MPM_HD_OUTLINE __attribute__((noinline))
+#endif
+
 namespace mpm {
 
 /// Whether particle `cut` has been cut (has a plane).
@@ -248,5 +257,29 @@ struct SidedStencil {
     if (oldOut) *oldOut = sumOld + (1.f - W) * vOld;
   }
 };
+
+/// P2G of a cut particle through the nodes on its side (SidedStencil): momentum w (mv +
+/// A (x_i - x-bar)) with A = mC + S Dinv, S = -dt V0 tau the stress part (MLS-MPM; zero for
+/// PB-MPM), and with `stressImpulse` (standard MPM) S's force w Dinv (x_i - x-bar) S and an
+/// external impulse J as the nodes' stress impulse instead.
+template <bool kCentroid, class Nodes>
+MPM_HD_OUTLINE void scatterCutParticle(const QuadraticStencil& st, float dx, const CutPlane& cut, float m, Vec3f mv,
+                                       const Mat3f& mC, const Mat3f& S, bool stressImpulse, Vec3f J, Vec3f xp,
+                                       float touch, Nodes& nodes) {
+  const SidedStencil side(st, dx, cut);
+  if (stressImpulse) {
+    side.scatter<kCentroid>(st, m, mv, mC, xp, touch, nodes);
+    side.scatterStressImpulse(st, S, J, nodes);
+  } else {
+    side.scatter<kCentroid>(st, m, mv, mC + S * side.Dinv, xp, touch, nodes);
+  }
+}
+
+/// G2P of a cut particle (SidedStencil::gather).
+template <class Nodes>
+MPM_HD_OUTLINE void gatherCutParticle(const QuadraticStencil& st, float dx, const CutPlane& cut, const Nodes& nodes,
+                                      Vec3f vOld, Vec3f& v, Mat3f& C, Vec3f* oldOut) {
+  SidedStencil(st, dx, cut).gather(st, nodes, vOld, v, C, oldOut);
+}
 
 }  // namespace mpm

@@ -31,9 +31,8 @@ struct MlsMpm {
       const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
       const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
       if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, M^-1 their own
-        const SidedStencil side(st, geo.dx, P.cut[p]);
-        const Mat3f affine = m * P.C[p] - (dt * P.volume0[p]) * (tau * side.Dinv);
-        side.scatter<kCentroid>(st, m, mv, affine, P.x[p], P.touch[p], nodes);
+        scatterCutParticle<kCentroid>(st, geo.dx, P.cut[p], m, mv, m * P.C[p], (-dt * P.volume0[p]) * tau, false,
+                                      Vec3f{}, P.x[p], P.touch[p], nodes);
         return;
       }
       const Mat3f affine = m * P.C[p] - (dt * P.volume0[p] * apicInverseInertia(geo)) * tau;
@@ -57,7 +56,7 @@ struct MlsMpm {
       Mat3f C;
       const bool cut = cuts && isCut(P.cut[p]);
       if (cut)
-        SidedStencil(st, geo.dx, P.cut[p]).gather(st, nodes, P.v[p], v, C);
+        gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
       else
         apicGather(st, geo, nodes, v, C);
       P.v[p] = v;

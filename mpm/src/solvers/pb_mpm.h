@@ -56,7 +56,8 @@ struct PbMpm {
       const float m = P.mass[p];
       const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
       if (cuts && isCut(P.cut[p]))
-        SidedStencil(st, geo.dx, P.cut[p]).scatter<kCentroid>(st, m, mv, m * Cc, P.x[p], P.touch[p], nodes);
+        scatterCutParticle<kCentroid>(st, geo.dx, P.cut[p], m, mv, m * Cc, Mat3f{}, false, Vec3f{}, P.x[p], P.touch[p],
+                                      nodes);
       else
         apicScatter<kCentroid>(st, geo.dx, m, mv, m * Cc, P.x[p], P.touch[p], nodes);
     }
@@ -79,7 +80,7 @@ struct PbMpm {
       Mat3f C;
       const bool cut = cuts && isCut(P.cut[p]);
       if (cut)
-        SidedStencil(st, geo.dx, P.cut[p]).gather(st, nodes, P.v[p], v, C);
+        gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
       else
         apicGather(st, geo, nodes, v, C);
       P.v[p] = v;

@@ -37,10 +37,9 @@ struct StandardMpm {
       // the resistance to cutting enters as a force, with the stress: the FLIP increment sees it
       const Vec3f pushed = push ? push[p] : Vec3f{0.f, 0.f, 0.f};
       if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, with their own gradients
-        const SidedStencil side(st, geo.dx, P.cut[p]);
-        side.scatter<kCentroid>(st, m, mv, Mat3f{}, xp, P.touch[p], nodes);
-        side.scatterStressImpulse(st, (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]), pushed,
-                                  nodes);
+        scatterCutParticle<kCentroid>(st, geo.dx, P.cut[p], m, mv, Mat3f{},
+                                      (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]), true,
+                                      pushed, xp, P.touch[p], nodes);
         return;
       }
       const Float4 push4 = Float4::make(0.f, pushed.x, pushed.y, pushed.z);
@@ -59,13 +58,14 @@ struct StandardMpm {
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
           const float wij = w[0][i] * w[1][j];
-          const Float4 e = (dw[0][i] * w[1][j]) * t0 + (w[0][i] * dw[1][j]) * t1;
+          // the push's share w_ij w_k J rides on e, which each node takes times w_k
+          const Float4 e = (dw[0][i] * w[1][j]) * t0 + (w[0][i] * dw[1][j]) * t1 + wij * push4;
           const Float4 f = wij * t2;
           for (int k = 0; k < 3; ++k) {
             const float wt = wij * w[2][k];
             nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * q0);
             if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, (wt * m) * x4);
-            nodes.addStressImpulse(base[0] + i, base[1] + j, base[2] + k, w[2][k] * e + dw[2][k] * f + wt * push4);
+            nodes.addStressImpulse(base[0] + i, base[1] + j, base[2] + k, w[2][k] * e + dw[2][k] * f);
           }
         }
     }
@@ -102,7 +102,7 @@ struct StandardMpm {
       if (cuts && isCut(P.cut[p])) {
         Vec3f vPic, vOld;
         Mat3f L;
-        SidedStencil(st, geo.dx, P.cut[p]).gather(st, nodes, P.v[p], vPic, L, &vOld);
+        gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], vPic, L, &vOld);
         return advance(p, vPic, vPic - vOld, L, true);
       }
       float dw[3][3];
