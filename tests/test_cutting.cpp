@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <numeric>
+#include <string>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -584,6 +585,45 @@ TEST(CuttingCheckpoint, ACutSceneResumesBitForBit) {
   EXPECT_EQ(differ, 0);
   EXPECT_EQ(pieces(xb, 0.5f * kDx), 2) << "the loaded scene finished the cut";
   EXPECT_EQ(a->slicerState(s).pose.position.y, b->slicerState(s).pose.position.y);
+}
+
+// Bad slicers are refused naming the field and the value; the scene keeps stepping.
+TEST(CuttingValidation, BadSlicersAreRefusedByName) {
+  Scene scene(settingsFor(SolverType::MlsMpm));
+  scene.addParticleObject(block());
+  auto refused = [&](auto desc, const std::string& field) {
+    try {
+      scene.addSlicer(desc);
+      ADD_FAILURE() << field << " was accepted";
+    } catch (const InvalidArgument& e) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
+  };
+  QuadSlicerDesc q = blade(0.f);
+  q.halfLength = -1.f;
+  refused(q, "QuadSlicerDesc.halfLength");
+  q = blade(0.f);
+  q.spineRadius = q.width;
+  refused(q, "QuadSlicerDesc.spineRadius");
+  q = blade(0.f);
+  q.pose.position.x = std::nanf("");
+  refused(q, "ShapeState.pose.position");
+  MeshSlicerDesc m = arcBlade(0.f);
+  std::swap(m.blade.indices[1], m.blade.indices[2]);  // one triangle turned over
+  refused(m, "MeshSlicerDesc.blade");
+  m = arcBlade(0.f);
+  m.spineRadius = -0.01f;
+  refused(m, "MeshSlicerDesc.spineRadius");
+  EXPECT_THROW(scene.setSlicerState(SlicerId{}, ShapeState{}), InvalidArgument);
+  SceneSettings meshless = settingsFor(SolverType::Mtled);
+  Scene mtled(meshless);
+  try {
+    mtled.addSlicer(blade(0.f));
+    ADD_FAILURE() << "MTLED accepted a slicer";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("SceneSettings.solver"), std::string::npos) << e.what();
+  }
+  scene.step(1.f / 120.f);  // still steps
 }
 
 TEST(CuttingConvergence, TheToughnessForceHoldsWithHalfTheCellSize) {

@@ -76,6 +76,20 @@ class SceneImpl {
       throw Error(std::string(call) + ": a step is running; call fetchResults() first");
   }
 
+  /// The record `id` names in `table` (shapes, slicers), between steps.
+  template <class Table, class Id>
+  auto& idleRecord(Table& table, Id id, const char* call) {
+    requireIdle(call);
+    return table.lookup(id, call);
+  }
+  /// Sets a shape's or slicer's pose and velocities (validated) before an advance.
+  template <class Table, class Id>
+  void setMotion(Table& table, Id id, const ShapeState& s, const char* call) {
+    auto& r = idleRecord(table, id, call);
+    validateShapeState(s);
+    r.state = s;
+  }
+
   ParticleObjectId add(const ParticleObjectDesc& d) {
     requireIdle("addParticleObject");
     const SeededObject o = seedParticleObject(d, objects, settings, geo, *backend);
@@ -319,41 +333,24 @@ StepReport Scene::fetchResults() { return impl_->fetch(); }
 ShapeId Scene::addShape(const ShapeDesc& d) { return impl_->addShape(d); }
 void Scene::removeShape(ShapeId id) { impl_->removeShape(id); }
 bool Scene::isValid(ShapeId id) const { return impl_->shapes.isValid(id); }
-void Scene::setShapeState(ShapeId id, const ShapeState& s) {
-  impl_->requireIdle("setShapeState");
-  ShapeRecord& r = impl_->shapes.lookup(id, "setShapeState");
-  validateShapeState(s);
-  r.state = s;
-}
-ShapeState Scene::shapeState(ShapeId id) const {
-  impl_->requireIdle("shapeState");
-  return impl_->shapes.lookup(id, "shapeState").state;
-}
+void Scene::setShapeState(ShapeId id, const ShapeState& s) { impl_->setMotion(impl_->shapes, id, s, "setShapeState"); }
+ShapeState Scene::shapeState(ShapeId id) const { return impl_->idleRecord(impl_->shapes, id, "shapeState").state; }
 ShapeImpulse Scene::shapeImpulse(ShapeId id) const {
-  impl_->requireIdle("shapeImpulse");
-  return impl_->shapes.lookup(id, "shapeImpulse").lastImpulse;
+  return impl_->idleRecord(impl_->shapes, id, "shapeImpulse").lastImpulse;
 }
 SlicerId Scene::addSlicer(const QuadSlicerDesc& d) { return impl_->addSlicer(d); }
 SlicerId Scene::addSlicer(const MeshSlicerDesc& d) { return impl_->addSlicer(d); }
 void Scene::removeSlicer(SlicerId id) {
-  impl_->requireIdle("removeSlicer");
-  impl_->slicers.lookup(id, "removeSlicer");
-  impl_->slicers.remove(id);
+  impl_->idleRecord(impl_->slicers, id, "removeSlicer");
+  impl_->slicers.remove(id);  // its cuts stay in the particles
 }
 bool Scene::isValid(SlicerId id) const { return impl_->slicers.isValid(id); }
 void Scene::setSlicerState(SlicerId id, const ShapeState& s) {
-  impl_->requireIdle("setSlicerState");
-  SlicerRecord& r = impl_->slicers.lookup(id, "setSlicerState");
-  validateShapeState(s);
-  r.state = s;
+  impl_->setMotion(impl_->slicers, id, s, "setSlicerState");
 }
-ShapeState Scene::slicerState(SlicerId id) const {
-  impl_->requireIdle("slicerState");
-  return impl_->slicers.lookup(id, "slicerState").state;
-}
+ShapeState Scene::slicerState(SlicerId id) const { return impl_->idleRecord(impl_->slicers, id, "slicerState").state; }
 ShapeImpulse Scene::slicerImpulse(SlicerId id) const {
-  impl_->requireIdle("slicerImpulse");
-  return impl_->slicers.lookup(id, "slicerImpulse").lastImpulse;
+  return impl_->idleRecord(impl_->slicers, id, "slicerImpulse").lastImpulse;
 }
 StepReport Scene::step(float dt) {
   advance(dt);
