@@ -28,6 +28,11 @@ struct Coupler::SlicerLink {
   btRigidBody* body;
   SlicerId slicer;
   btTransform local;  ///< the blade's frame in the body's centre-of-mass frame
+
+  /// The blade's frame in the world.
+  btTransform blade() const { return body->getCenterOfMassTransform() * local; }
+  /// The blade's pose and velocities (of its frame's origin) from the body's motion.
+  ShapeState state() const;
 };
 
 // CouplingContact repeats ContactParams' fields but friction: a field added there must be
@@ -46,7 +51,6 @@ ContactParams CouplingContact::resolve(float bodyFriction) const {
 
 namespace {
 
-Vec3f toVec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
 btVector3 toBt(Vec3f v) { return {v.x, v.y, v.z}; }
 
 void preTick(btDynamicsWorld* world, btScalar dt) {
@@ -143,9 +147,7 @@ ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMult
     throw InvalidArgument(options.contact.friction ? "CouplingOptions.contact.friction"
                                                    : "btCollisionObject::getFriction() of the coupled body",
                           std::to_string(d.contact.friction), "must be finite and >= 0");
-  const btTransform& t = object->getWorldTransform();
-  const btQuaternion q = t.getRotation();
-  d.pose = {toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};
+  d.pose = toPose(object->getWorldTransform());
   bool dynamic = false;
   if (rigid && rigid->getInvMass() > 0.f) {
     dynamic = true;
@@ -185,22 +187,27 @@ std::vector<ShapeId> Coupler::addMultiBody(btMultiBody* body, const CouplingOpti
   return ids;
 }
 
+ShapeState Coupler::SlicerLink::state() const {
+  const btTransform t = blade();
+  return {toPose(t), toVec(body->getVelocityInLocalPoint(t.getOrigin() - body->getCenterOfMassPosition())),
+          toVec(body->getAngularVelocity())};
+}
+
 SlicerId Coupler::addSlicer(btRigidBody* body, const QuadSlicerDesc& blade) {
   if (!body) throw InvalidArgument("Coupler::addSlicer body", "null", "needs a btRigidBody");
   for (const SlicerLink& l : slicers_)
     if (l.body == body) throw InvalidArgument("Coupler::addSlicer body", "already a slicer", "one blade per body");
   const Pose& p = blade.pose;
-  const btTransform local(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
-                          btVector3(p.position.x, p.position.y, p.position.z));
+  SlicerLink link{body, {}, btTransform(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
+                                        btVector3(p.position.x, p.position.y, p.position.z))};
+  const ShapeState now = link.state();
   QuadSlicerDesc placed = blade;
-  const btTransform world = body->getCenterOfMassTransform() * local;
-  const btQuaternion q = world.getRotation();
-  placed.pose = {toVec(world.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};
-  placed.linearVelocity = toVec(body->getVelocityInLocalPoint(world.getOrigin() - body->getCenterOfMassPosition()));
-  placed.angularVelocity = toVec(body->getAngularVelocity());
-  const SlicerId id = scene_.addSlicer(placed);  // validates the blade
-  slicers_.push_back({body, id, local});
-  return id;
+  placed.pose = now.pose;
+  placed.linearVelocity = now.linearVelocity;
+  placed.angularVelocity = now.angularVelocity;
+  link.slicer = scene_.addSlicer(placed);  // validates the blade
+  slicers_.push_back(link);
+  return link.slicer;
 }
 
 SlicerId Coupler::slicerOf(const btRigidBody* body) const {
@@ -427,17 +434,9 @@ void Coupler::tick(float dt) {
     } else if (l.multi) {
       multiBodyLinkVelocity(l.multi, l.link, t, v, w);
     }
-    const btQuaternion q = t.getRotation();
-    scene_.setShapeState(l.shape, {{toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}},
-                                   toVec(v), toVec(w)});
+    scene_.setShapeState(l.shape, {toPose(t), toVec(v), toVec(w)});
   }
-  for (const SlicerLink& l : slicers_) {
-    const btTransform t = l.body->getCenterOfMassTransform() * l.local;
-    const btQuaternion q = t.getRotation();
-    const btVector3 v = l.body->getVelocityInLocalPoint(t.getOrigin() - l.body->getCenterOfMassPosition());
-    scene_.setSlicerState(l.slicer, {{toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}},
-                                     toVec(v), toVec(l.body->getAngularVelocity())});
-  }
+  for (const SlicerLink& l : slicers_) scene_.setSlicerState(l.slicer, l.state());
   // 2. the tissue advances over the tick with its own substeps
   scene_.step(dt);
   // 3. the momentum the grid gave each shape goes back to its body
@@ -460,7 +459,7 @@ void Coupler::tick(float dt) {
   for (const SlicerLink& l : slicers_) {
     if (l.body->isStaticOrKinematicObject()) continue;
     const ShapeImpulse J = scene_.slicerImpulse(l.slicer);
-    const btVector3 lever = (l.body->getCenterOfMassTransform() * l.local).getOrigin() - l.body->getCenterOfMassPosition();
+    const btVector3 lever = l.blade().getOrigin() - l.body->getCenterOfMassPosition();
     l.body->applyCentralImpulse(toBt(J.linear));
     l.body->applyTorqueImpulse(toBt(J.angular) + lever.cross(toBt(J.linear)));
     l.body->activate();

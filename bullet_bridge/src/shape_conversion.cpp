@@ -17,14 +17,14 @@
 
 namespace mpm::bullet {
 
-namespace {
-
 Vec3f toVec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
 
 Pose toPose(const btTransform& t) {
   const btQuaternion q = t.getRotation();
   return {toVec(t.getOrigin()), {(float)q.w(), (float)q.x(), (float)q.y(), (float)q.z()}};
 }
+
+namespace {
 
 /// Composes parent * child poses.
 Pose compose(const Pose& parent, const Pose& child) {

@@ -19,6 +19,7 @@
 #include "scene/step_worker.h"
 #include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
+#include "solvers/cut_transfer.h"
 #include "solvers/solver_list.h"
 #include "state/scene_checkpoint.h"
 
@@ -143,27 +144,29 @@ class SceneImpl {
     shapes.remove(id);  // drops its mesh
   }
 
-  SlicerId addSlicer(const QuadSlicerDesc& d) {
+  /// The checks every addSlicer makes first: between steps, and a solver that can cut.
+  void requireCuttingSolver() const {
     requireIdle("addSlicer");
     if (solverTraits(settings.solver).meshless)
       throw InvalidArgument("SceneSettings.solver", "Mtled",
                             "cannot cut: slicers need a grid solver (MlsMpm, StandardMpm or PbMpm)");
+  }
+
+  SlicerId addSlicer(const QuadSlicerDesc& d) {
+    requireCuttingSolver();
     validateSlicerDesc(d);
     return slicers.add({d, {d.pose, d.linearVelocity, d.angularVelocity}, {}, nullptr});
   }
 
   SlicerId addSlicer(const MeshSlicerDesc& d) {
-    requireIdle("addSlicer");
-    if (solverTraits(settings.solver).meshless)
-      throw InvalidArgument("SceneSettings.solver", "Mtled",
-                            "cannot cut: slicers need a grid solver (MlsMpm, StandardMpm or PbMpm)");
+    requireCuttingSolver();
     validateSlicerDesc(d);
     auto curved = std::make_shared<CurvedBlade>();
-    // sampled to where a particle can be recorded (up to 2.6 dx: maxStencilReach) and the
-    // faces' band and resting reach touch a node (1.15 dx), beyond the blade's own thickness
+    // sampled as far as a particle can be recorded (maxStencilReach, which also covers the
+    // faces' band and resting reach, 1.15 dx) beyond the blade's own thickness
     const float spacing = d.sampleSpacing > 0.f ? d.sampleSpacing : 0.25f * settings.dx;
     curved->grid = std::make_shared<const SignedDistanceGrid>(
-        buildBladeGrid(d.blade, spacing, d.halfThickness + 3.f * settings.dx));
+        buildBladeGrid(d.blade, spacing, d.halfThickness + maxStencilReach(settings.dx)));
     curved->spineFrom = d.spineFrom;
     curved->spineTo = d.spineTo;
     return slicers.add({commonFields(d), {d.pose, d.linearVelocity, d.angularVelocity}, {}, std::move(curved)});

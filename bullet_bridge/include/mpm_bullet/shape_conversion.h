@@ -13,8 +13,14 @@
 #include "mpm/shapes.h"
 
 class btCollisionShape;
+class btTransform;
+class btVector3;
 
 namespace mpm::bullet {
+
+/// Bullet's vector and rigid transform as mpm's.
+Vec3f toVec(const btVector3& v);
+Pose toPose(const btTransform& t);
 
 /// Geometry parts of `shape` in its own frame. `sdfCellSize` [m] is the sample spacing
 /// of grids built for meshes and hulls (a third to a half of the MPM cell is typical).

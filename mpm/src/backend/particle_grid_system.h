@@ -30,6 +30,14 @@ struct ZeroNodes {
   MPM_HD void operator()(size_t n) const { nodes[n] = GridNode{}; }  // every field (MPM_GRID_NODE_FIELDS) zero
 };
 
+/// data[i] = value.
+template <class T>
+struct Fill {
+  T* data;
+  T value;
+  MPM_HD void operator()(size_t i) const { data[i] = value; }
+};
+
 /// out[i] = in[order[i]]: applies a sort permutation to one field.
 template <class T>
 struct Gather {
@@ -176,10 +184,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     const size_t n = toughness_ ? bladeBodies_.size() * count_ : 0;
     bladeImpulses_.resizeDiscard(n);
     push_.resizeDiscard(n ? count_ : 0);
-    if (n) {
-      const std::vector<BladeImpulse> zero(n, BladeImpulse{});
-      exec_.copyToDevice(bladeImpulses_.data(), zero.data(), n * sizeof(BladeImpulse));
-    }
+    exec_.forEach(n, kernels::Fill<BladeImpulse>{bladeImpulses_.data(), BladeImpulse{}});
   }
 
   /// The shapes' impulses, the slicers' faces with the resistance to cutting added.
@@ -201,8 +206,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
         c.angular[a] += (float)sum[3 + a];
       }
     }
-    const std::vector<BladeImpulse> zero(all.size(), BladeImpulse{});
-    exec_.copyToDevice(bladeImpulses_.data(), zero.data(), zero.size() * sizeof(BladeImpulse));
+    exec_.forEach(all.size(), kernels::Fill<BladeImpulse>{bladeImpulses_.data(), BladeImpulse{}});
     return out;
   }
 

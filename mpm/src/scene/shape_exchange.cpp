@@ -74,6 +74,15 @@ namespace {
 ShapeImpulse impulseOf(const ContactSums& c) {
   return {{c.impulse[0], c.impulse[1], c.impulse[2]}, {c.angular[0], c.angular[1], c.angular[2]}};
 }
+
+/// A body's pose after the substeps moved it. A body they did not move keeps its pose as
+/// given: read back from the float matrix and origin it would drift by their rounding
+/// every advance.
+void readPose(const BodyView& b, Pose& pose) {
+  if (!moved(b)) return;
+  pose.position = b.shapeOrigin;
+  pose.rotation = quaternionFromMatrix(b.rotation);
+}
 }  // namespace
 
 void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, const BodyMap& map, SimBackend& backend) {
@@ -86,23 +95,14 @@ void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, const BodyMap& map
     // the faces' and the spine's, about the slicer's frame origin (both bodies' centre)
     const ShapeImpulse faces = impulseOf(impulses[b]), spine = impulseOf(impulses[b + 1]);
     slicers[i].lastImpulse = {faces.linear + spine.linear, faces.angular + spine.angular};
-    // kinematic: it moved on with its velocity within the advance
-    if (moved(bodies[b])) {
-      slicers[i].state.pose.position = bodies[b].shapeOrigin;
-      slicers[i].state.pose.rotation = quaternionFromMatrix(bodies[b].rotation);
-    }
+    readPose(bodies[b], slicers[i].state.pose);  // kinematic: it moved on with its velocity
   }
   const std::vector<int>& bodyOfShape = map.shapes;
   for (size_t i = 0; i < shapes.size(); ++i) {
     const int b = i < bodyOfShape.size() ? bodyOfShape[i] : -1;
     if (!shapes.alive(i) || b < 0) continue;
     ShapeState& st = shapes[i].state;
-    // a body the substeps did not move keeps its pose as given: read back from the
-    // float matrix and origin it would drift by their rounding every advance
-    if (moved(bodies[b])) {
-      st.pose.position = bodies[b].shapeOrigin;
-      st.pose.rotation = quaternionFromMatrix(bodies[b].rotation);
-    }
+    readPose(bodies[b], st.pose);
     st.linearVelocity = bodies[b].linearVelocity;
     st.angularVelocity = bodies[b].angularVelocity;
     shapes[i].lastImpulse = impulseOf(impulses[b]);

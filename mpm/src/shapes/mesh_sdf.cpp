@@ -122,52 +122,46 @@ Vec3d nearestOnSegment(Vec3d p, Vec3d s, Vec3d e) {
   return s + t * d;
 }
 
-/// Squared distance from p to the triangle: Ericson's closest point on a triangle
-/// (Real-Time Collision Detection, 5.1.5), classifying p against the Voronoi regions of
-/// the vertices, then the edges, else the face. All six of Ericson's dot products follow
-/// from ab.ap and ac.ap and the triangle's precomputed ab.ab, ab.ac, ac.ac; in the face
-/// region the distance is the one to the plane.
-double triangleDistanceSquared(Vec3d p, const Triangle& t) {
+/// The point of triangle t nearest p and its feature (0 the face, 1 + e the edge e: ab, bc,
+/// ca; 4 + v the vertex v: a, b, c): Ericson's closest point on a triangle (Real-Time
+/// Collision Detection, 5.1.5), classifying p against the Voronoi regions of the vertices,
+/// then the edges, else the face. All six of Ericson's dot products follow from ab.ap and
+/// ac.ap and the triangle's precomputed ab.ab, ab.ac, ac.ac.
+Vec3d closestOnTriangle(Vec3d p, const Triangle& t, int& feature) {
   const Vec3d ap = p - t.a;
   const double d1 = dot(t.ab, ap), d2 = dot(t.ac, ap);
-  if (d1 <= 0 && d2 <= 0) return dot(ap, ap);  // vertex a
+  if (d1 <= 0 && d2 <= 0) return feature = 4, t.a;
   const double d3 = d1 - t.abab, d4 = d2 - t.abac;  // ab.bp, ac.bp
-  if (d3 >= 0 && d4 <= d3) {  // vertex b
-    const Vec3d bp = p - t.b;
-    return dot(bp, bp);
-  }
+  if (d3 >= 0 && d4 <= d3) return feature = 5, t.b;
   const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {  // edge ab
-    const Vec3d q = ap - (d1 / (d1 - d3)) * t.ab;
-    return dot(q, q);
-  }
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return feature = 1, t.a + (d1 / (d1 - d3)) * t.ab;
   const double d5 = d1 - t.abac, d6 = d2 - t.acac;  // ab.cp, ac.cp
-  if (d6 >= 0 && d5 <= d6) {  // vertex c
-    const Vec3d cp = p - t.c;
-    return dot(cp, cp);
-  }
+  if (d6 >= 0 && d5 <= d6) return feature = 6, t.c;
   const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {  // edge ac
-    const Vec3d q = ap - (d2 / (d2 - d6)) * t.ac;
-    return dot(q, q);
-  }
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return feature = 3, t.a + (d2 / (d2 - d6)) * t.ac;
   const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {  // edge bc
-    const Vec3d q = (p - t.b) - ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (t.c - t.b);
-    return dot(q, q);
-  }
-  if (va + vb + vc > 0 && t.unitNormal.x * t.unitNormal.x + t.unitNormal.y * t.unitNormal.y +
-                                  t.unitNormal.z * t.unitNormal.z > 0) {
-    const double plane = dot(ap, t.unitNormal);  // face
-    return plane * plane;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return feature = 2, t.b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (t.c - t.b);
+  feature = 0;
+  if (va + vb + vc > 0 && dot(t.unitNormal, t.unitNormal) > 0) {
+    const double denom = 1.0 / (va + vb + vc);
+    return t.a + (vb * denom) * t.ab + (vc * denom) * t.ac;
   }
   // a degenerate triangle that slipped past the edge tests: nearest of its edges
-  double best = std::numeric_limits<double>::infinity();
+  Vec3d best = t.a;
+  double bestD2 = std::numeric_limits<double>::infinity();
   for (const auto& edge : {std::make_pair(t.a, t.b), std::make_pair(t.b, t.c), std::make_pair(t.c, t.a)}) {
-    const Vec3d q = p - nearestOnSegment(p, edge.first, edge.second);
-    best = std::min(best, dot(q, q));
+    const Vec3d q = nearestOnSegment(p, edge.first, edge.second);
+    if (dot(p - q, p - q) < bestD2) bestD2 = dot(p - q, p - q), best = q;
   }
   return best;
+}
+
+/// Squared distance from p to the triangle (closestOnTriangle).
+double triangleDistanceSquared(Vec3d p, const Triangle& t) {
+  int feature;
+  const Vec3d d = p - closestOnTriangle(p, t, feature);
+  return dot(d, d);
 }
 
 /// Signed solid angle of triangle abc seen from p (van Oosterom & Strackee 1983), positive
@@ -521,23 +515,10 @@ WatertightReport checkWatertight(const TriangleMesh& mesh) {
   return report;
 }
 
-SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellSize, int paddingCells) {
-  validateMesh(mesh);
-  if (!std::isfinite(cellSize)) throw InvalidArgument("cellSize", show(cellSize), "must be a finite number");
-  if (!(cellSize > 0.f)) throw InvalidArgument("cellSize", show(cellSize), "must be > 0");
-  if (paddingCells < 1)
-    throw InvalidArgument("paddingCells", std::to_string(paddingCells),
-                          "must be >= 1 (the grid's border must lie outside the mesh)");
-  if (paddingCells > kMaxDim / 2)
-    throw InvalidArgument("paddingCells", std::to_string(paddingCells),
-                          "must be <= " + std::to_string(kMaxDim / 2));
-
-  std::vector<Vec3d> vertices(mesh.vertices.size());
-  for (size_t i = 0; i < vertices.size(); ++i) vertices[i] = toDouble(mesh.vertices[i]);
-  Box3d bounds;  // of the vertices the triangles use
-  for (uint32_t index : mesh.indices) bounds.grow(vertices[index]);
-
-  // the mesh's bounds rounded up to whole cells, centred, plus the padding on every side
+namespace {
+/// An empty grid over `bounds` rounded up to whole cells, centred, plus `paddingCells` on
+/// every side; its values sized. Throws InvalidArgument on cellSize when it is too fine.
+SignedDistanceGrid gridAround(const Box3d& bounds, float cellSize, int paddingCells) {
   SignedDistanceGrid grid;
   grid.cellSize = cellSize;
   double samples = 1;
@@ -560,6 +541,29 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
                           "gives " + std::to_string((long long)samples) + " grid samples, more than " +
                               std::to_string((long long)kMaxSamples));
 
+  grid.values.resize(static_cast<size_t>(samples));
+  return grid;
+}
+}  // namespace
+
+SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellSize, int paddingCells) {
+  validateMesh(mesh);
+  if (!std::isfinite(cellSize)) throw InvalidArgument("cellSize", show(cellSize), "must be a finite number");
+  if (!(cellSize > 0.f)) throw InvalidArgument("cellSize", show(cellSize), "must be > 0");
+  if (paddingCells < 1)
+    throw InvalidArgument("paddingCells", std::to_string(paddingCells),
+                          "must be >= 1 (the grid's border must lie outside the mesh)");
+  if (paddingCells > kMaxDim / 2)
+    throw InvalidArgument("paddingCells", std::to_string(paddingCells),
+                          "must be <= " + std::to_string(kMaxDim / 2));
+
+  std::vector<Vec3d> vertices(mesh.vertices.size());
+  for (size_t i = 0; i < vertices.size(); ++i) vertices[i] = toDouble(mesh.vertices[i]);
+  Box3d bounds;  // of the vertices the triangles use
+  for (uint32_t index : mesh.indices) bounds.grow(vertices[index]);
+
+  SignedDistanceGrid grid = gridAround(bounds, cellSize, paddingCells);
+
   const WatertightReport report = checkWatertight(mesh);
   if (!report.watertight) {
     grid.signReliable = false;
@@ -569,7 +573,6 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
   }
 
   const TriangleBvh bvh(vertices, mesh.indices);
-  grid.values.resize(static_cast<size_t>(samples));
   const double h = cellSize;
   const Vec3d lower = toDouble(grid.lower);
   const bool watertight = report.watertight;
@@ -659,34 +662,6 @@ Vec3f SignedDistanceGrid::gradient(Vec3f p) const {
   return g;
 }
 
-namespace {
-
-/// The point of triangle t nearest p (Ericson 5.1.5) and its feature: 0 the face, 1 + e the
-/// edge e (ab, bc, ca), 4 + v the vertex v (a, b, c).
-Vec3d closestOnTriangle(Vec3d p, const Triangle& t, int& feature) {
-  const Vec3d ap = p - t.a;
-  const double d1 = dot(t.ab, ap), d2 = dot(t.ac, ap);
-  if (d1 <= 0 && d2 <= 0) return feature = 4, t.a;
-  const Vec3d bp = p - t.b;
-  const double d3 = dot(t.ab, bp), d4 = dot(t.ac, bp);
-  if (d3 >= 0 && d4 <= d3) return feature = 5, t.b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return feature = 1, t.a + (d1 / (d1 - d3)) * t.ab;
-  const Vec3d cp = p - t.c;
-  const double d5 = dot(t.ab, cp), d6 = dot(t.ac, cp);
-  if (d6 >= 0 && d5 <= d6) return feature = 6, t.c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return feature = 3, t.a + (d2 / (d2 - d6)) * t.ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return feature = 2, t.b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (t.c - t.b);
-  const double denom = 1.0 / (va + vb + vc);
-  feature = 0;
-  return t.a + (vb * denom) * t.ab + (vc * denom) * t.ac;
-}
-
-}  // namespace
-
 SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, float reach) {
   validateMesh(mesh);
   if (!(cellSize > 0.f) || !std::isfinite(cellSize)) throw InvalidArgument("cellSize", show(cellSize), "must be > 0");
@@ -718,20 +693,7 @@ SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, floa
 
   Box3d bounds;
   for (uint32_t index : mesh.indices) bounds.grow(toDouble(mesh.vertices[index]));
-  SignedDistanceGrid grid;
-  grid.cellSize = cellSize;
-  const int pad = (int)std::ceil(reach / cellSize) + 1;
-  double samples = 1;
-  for (int a = 0; a < 3; ++a) {
-    const double cells = std::ceil((bounds.hi[a] - bounds.lo[a]) / cellSize - 1e-4) + 2.0 * pad;
-    if (cells + 1 > kMaxDim) throw InvalidArgument("cellSize", show(cellSize), "gives too many samples along an axis");
-    grid.dims[a] = (int)cells + 1;
-    samples *= grid.dims[a];
-    const double lower = 0.5 * (bounds.lo[a] + bounds.hi[a]) - 0.5 * cells * cellSize;
-    (a == 0 ? grid.lower.x : a == 1 ? grid.lower.y : grid.lower.z) = (float)lower;
-  }
-  if (samples > kMaxSamples) throw InvalidArgument("cellSize", show(cellSize), "gives too many grid samples");
-  grid.values.resize((size_t)samples);
+  SignedDistanceGrid grid = gridAround(bounds, cellSize, (int)std::ceil(reach / cellSize) + 1);
   const Vec3d lower = toDouble(grid.lower);
 #if defined(_OPENMP)
 #pragma omp parallel for schedule(dynamic, 1)
