@@ -115,7 +115,7 @@ class SceneImpl {
 
   void uploadMaterials() { backend->setMaterials(materialTable(objects)); }
 
-  SubstepBounds substepBounds() { return {settings, objects, shapes, slicers, maxParticleSpeed, *backend}; }
+  SubstepBounds substepBounds() { return {settings, objects, shapes, slicers, curves, maxParticleSpeed, *backend}; }
 
   StepReport run(float dt, int substeps) {
     StepReport report;
@@ -172,11 +172,50 @@ class SceneImpl {
     return slicers.add({commonFields(d), {d.pose, d.linearVelocity, d.angularVelocity}, {}, std::move(curved)});
   }
 
+  /// The checks every addCurve makes first: between steps, and a grid solver.
+  void requireCurveSolver() const {
+    requireIdle("addCurve");
+    if (solverTraits(settings.solver).meshless)
+      throw InvalidArgument("SceneSettings.solver", "Mtled",
+                            "has no curves: needles and threads need a grid solver (MlsMpm, StandardMpm or PbMpm)");
+  }
+
+  CurveId addCurve(const ArcDesc& d) {
+    requireCurveSolver();
+    validateCurveDesc(d);
+    CurveRecord c;
+    c.needle = true;
+    c.arc = d;
+    c.state = {d.pose, d.linearVelocity, d.angularVelocity};
+    c.impulses.resize(c.bodyCount());
+    return curves.add(c);
+  }
+
+  CurveId addCurve(const LineSegmentsDesc& d) {
+    requireCurveSolver();
+    validateCurveDesc(d);
+    CurveRecord c;
+    c.needle = false;
+    c.thread = d;
+    c.impulses.resize(c.bodyCount());
+    return curves.add(c);
+  }
+
+  /// A curve of the kind `needle` asks for, between steps.
+  CurveRecord& curveOfKind(CurveId id, bool needle, const char* call) {
+    CurveRecord& c = idleRecord(curves, id, call);
+    if (c.needle != needle)
+      throw InvalidArgument(std::string(call) + " id", std::to_string(id.index),
+                            needle ? "is a thread (LineSegmentsDesc): set its points with setCurvePoints"
+                                   : "is a needle (ArcDesc): move it with setCurveState");
+    return c;
+  }
+
   void advance(float dt) {
     requireIdle("advance");
     validate::positive("Scene::advance dt", dt);
     const int n = substepBounds().substepCount(dt);
-    bodies = uploadShapes(shapes, slicers, settings, *backend);
+    bodies = uploadShapes(shapes, slicers, curves, objects, settings, *backend);
     const bool energy = settings.energyCheck.enabled;
     std::vector<ShapeState> before;
     if (energy)
@@ -188,10 +227,11 @@ class SceneImpl {
       backend->saveState();
       for (int halvings = 0;; ++halvings) {
         try {
-          if (halvings > 0) bodies = uploadShapes(shapes, slicers, settings, *backend);  // moved by the failed attempt
+          if (halvings > 0)  // moved by the failed attempt
+            bodies = uploadShapes(shapes, slicers, curves, objects, settings, *backend);
           if (energy && !account.started) account.start(*backend, settings, objects);
           StepReport r = run(dt, n << halvings);
-          downloadShapes(shapes, slicers, bodies, *backend);
+          downloadShapes(shapes, slicers, curves, bodies, dt, *backend);
           if (energy) r.energy = account.checkAdvance(*backend, settings, objects, shapes, before, time);
           r.halvings = halvings;
           return r;
@@ -222,9 +262,11 @@ class SceneImpl {
     float maxParticleSpeed;
     EnergyAccount account;
     std::vector<std::pair<ShapeState, ShapeImpulse>> shapes, slicers;
+    std::vector<CurveRecord> curves;
   };
   Rollback keep() const {
-    Rollback r{time, maxParticleSpeed, account, {}, {}};
+    Rollback r{time, maxParticleSpeed, account, {}, {}, {}};
+    for (size_t i = 0; i < curves.size(); ++i) r.curves.push_back(curves[i]);
     for (size_t i = 0; i < shapes.size(); ++i) r.shapes.push_back({shapes[i].state, shapes[i].lastImpulse});
     for (size_t i = 0; i < slicers.size(); ++i) r.slicers.push_back({slicers[i].state, slicers[i].lastImpulse});
     return r;
@@ -235,10 +277,15 @@ class SceneImpl {
     account = r.account;
     for (size_t i = 0; i < shapes.size(); ++i) std::tie(shapes[i].state, shapes[i].lastImpulse) = r.shapes[i];
     for (size_t i = 0; i < slicers.size(); ++i) std::tie(slicers[i].state, slicers[i].lastImpulse) = r.slicers[i];
+    for (size_t i = 0; i < curves.size(); ++i) curves[i] = r.curves[i];
   }
 
   /// The whole scene as a checkpoint (state/scene_checkpoint.h), with the caller's bytes.
   std::vector<uint8_t> checkpoint(const std::vector<uint8_t>& attachment) const {
+    for (size_t i = 0; i < curves.size(); ++i)
+      if (curves.alive(i))
+        throw Error("save: the scene has a curve (CurveId " + std::to_string(i) +
+                    "); checkpoints do not hold needles and threads yet: remove them before saving");
     checkpoint::Writer w;
     checkpoint::writeSettings(w, settings);
     w.section("scene");
@@ -295,6 +342,7 @@ class SceneImpl {
     objects = std::move(l.objects);
     shapes = std::move(l.shapes);
     slicers = std::move(l.slicers);
+    curves = CurveTable{"CurveId", "curve"};  // a checkpoint holds none (checkpoint())
     bodies = BodyMap{};
     uploadMaterials();
     backend->importState(l.backend);
@@ -315,6 +363,7 @@ class SceneImpl {
   ObjectTable objects{"ParticleObjectId", "particle object"};
   ShapeTable shapes{"ShapeId", "shape"};
   SlicerTable slicers{"SlicerId", "slicer"};
+  CurveTable curves{"CurveId", "curve"};
   BodyMap bodies;  ///< where the shapes and slicers are among the backend's bodies
   float maxParticleSpeed = 0.f;
   double time = 0.0;
@@ -466,5 +515,47 @@ size_t Scene::memoryBytes() const {
   impl_->requireIdle("memoryBytes");
   return impl_->backend->memoryBytes();
 }
+
+}  // namespace mpm
+
+namespace mpm {
+
+CurveId Scene::addCurve(const ArcDesc& d) { return impl_->addCurve(d); }
+CurveId Scene::addCurve(const LineSegmentsDesc& d) { return impl_->addCurve(d); }
+void Scene::removeCurve(CurveId id) {
+  impl_->idleRecord(impl_->curves, id, "removeCurve");
+  impl_->curves.remove(id);
+}
+bool Scene::isValid(CurveId id) const { return impl_->curves.isValid(id); }
+void Scene::setCurveState(CurveId id, const ShapeState& s) {
+  CurveRecord& c = impl_->curveOfKind(id, true, "setCurveState");
+  validateShapeState(s);
+  c.state = s;
+}
+ShapeState Scene::curveState(CurveId id) const { return impl_->curveOfKind(id, true, "curveState").state; }
+void Scene::setCurvePoints(CurveId id, const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities) {
+  CurveRecord& c = impl_->curveOfKind(id, false, "setCurvePoints");
+  validateCurvePoints(points, velocities, c.thread.points.size());
+  c.thread.points = points;
+  c.thread.velocities = velocities;
+}
+ShapeImpulse Scene::curveImpulse(CurveId id) const {
+  const CurveRecord& c = impl_->idleRecord(impl_->curves, id, "curveImpulse");
+  ShapeImpulse sum;
+  for (size_t k = 0; k < c.impulses.size(); ++k) {
+    // a needle's bodies are both about its frame origin; a thread's segments about their midpoints
+    const Vec3f lever = c.needle ? Vec3f{0.f, 0.f, 0.f}
+                                 : 0.5f * (c.thread.points[k] + c.thread.points[k + 1]) - c.thread.points[0];
+    sum.linear += c.impulses[k].linear;
+    sum.angular += c.impulses[k].angular + cross(lever, c.impulses[k].linear);
+  }
+  return sum;
+}
+std::vector<ShapeImpulse> Scene::segmentImpulses(CurveId id) const {
+  const CurveRecord& c = impl_->idleRecord(impl_->curves, id, "segmentImpulses");
+  if (c.needle) return {curveImpulse(id)};
+  return c.impulses;
+}
+bool Scene::tipInside(CurveId id) const { return impl_->curveOfKind(id, true, "tipInside").tipInside; }
 
 }  // namespace mpm

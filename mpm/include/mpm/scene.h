@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/curves.h"
 #include "mpm/error.h"
 #include "mpm/settings.h"
 #include "mpm/shapes.h"
@@ -120,6 +121,30 @@ class Scene {
   /// Momentum the material gave the slicer during the last advance (faces and spine),
   /// about its frame's origin.
   ShapeImpulse slicerImpulse(SlicerId id) const;
+
+  /// Adds a curve (mpm/curves.h): a needle or a thread. Grid solvers only (with
+  /// SolverType::Mtled it throws InvalidArgument on SceneSettings.solver); a bad field
+  /// throws naming it.
+  CurveId addCurve(const ArcDesc& desc);
+  CurveId addCurve(const LineSegmentsDesc& desc);
+  void removeCurve(CurveId id);
+  bool isValid(CurveId id) const;
+  /// A needle's pose and velocities before an advance (of its frame's origin); within the
+  /// advance it moves on with them. Throws InvalidArgument for a thread.
+  void setCurveState(CurveId id, const ShapeState& state);
+  /// A needle's pose and velocities after the last advance.
+  ShapeState curveState(CurveId id) const;
+  /// A thread's points and their velocities (one per point; empty: at rest) before an
+  /// advance; the number of points is the thread's. Throws InvalidArgument for a needle.
+  void setCurvePoints(CurveId id, const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities = {});
+  /// Momentum the material gave the curve during the last advance: a needle's (shaft,
+  /// tip, the resistance to its tip and the friction on its shaft) about its frame's
+  /// origin; a thread's summed over its segments, about the first point.
+  ShapeImpulse curveImpulse(CurveId id) const;
+  /// A thread's impulse per segment, each about its segment's midpoint (a needle: one).
+  std::vector<ShapeImpulse> segmentImpulses(CurveId id) const;
+  /// Whether a needle's tip is inside the material (broke in and has not come out since).
+  bool tipInside(CurveId id) const;
 
   /// Starts advancing the scene by `dt` seconds (> 0) on a worker thread. The scene must
   /// not be changed until fetchResults() returns. Throws InvalidArgument, changing

@@ -68,6 +68,21 @@ struct RecordCuts {
       const PartView& part = parts[b];
       if (part.type == kPartCurvedBlade && part.mayTouch(P.x[i], P.x[i]))
         recordCurvedCut(P.cut[i], P.x[i], part, geo);
+      if (part.type == kPartTipInside) {
+        const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
+        if (gc > 0.f && part.mayTouch(P.x[i], P.x[i])) {
+          BladeImpulse& J = impulses[(size_t)blade * P.count + i];
+          float presence;
+          const Vec3f f = needleTipResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc,
+                                              dx, presence);
+          push[i] -= dt * f;
+          J.linear += dt * f;
+          J.angular += dt * cross(P.x[i] - bodies[part.body].com, f);
+          J.presence += dt * presence;
+        }
+        ++blade;
+        continue;
+      }
       if (part.type != kPartBlade) continue;
       if (part.mayTouch(P.x[i], P.x[i])) {
         recordCut(P.cut[i], P.x[i], part, dx);
@@ -174,10 +189,12 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
     ShapeBackend<Exec>::setShapes(bodies, parts);
     bladeBodies_.clear();
-    blades_ = false;
+    blades_ = tips_ = false;
     for (const PartView& p : parts) {
-      if (p.type == kPartBlade) bladeBodies_.push_back(p.body);  // the resistance to cutting: quad blades
+      // the resistance to cutting (quad blades) and to a needle's tip
+      if (p.type == kPartBlade || p.type == kPartTipInside) bladeBodies_.push_back(p.body);
       blades_ = blades_ || isBlade(p.type);
+      tips_ = tips_ || p.type == kPartTipInside;
     }
     everCut_ = everCut_ || blades_;
     // the resistance to cutting, per particle and blade, summed over the advance
@@ -194,17 +211,22 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     std::vector<BladeImpulse> all(bladeImpulses_.size());
     exec_.copyToHost(all.data(), bladeImpulses_.data(), all.size() * sizeof(BladeImpulse));
     for (size_t b = 0; b < bladeBodies_.size(); ++b) {
-      double sum[6] = {0, 0, 0, 0, 0, 0};
-      for (size_t i = 0; i < count_; ++i)
+      double sum[7] = {0, 0, 0, 0, 0, 0, 0};
+      for (size_t i = 0; i < count_; ++i) {
         for (int a = 0; a < 3; ++a) {
           sum[a] += all[b * count_ + i].linear[a];
           sum[3 + a] += all[b * count_ + i].angular[a];
         }
+        sum[6] += all[b * count_ + i].presence;
+      }
       ContactSums& c = out[bladeBodies_[b]];
       for (int a = 0; a < 3; ++a) {
         c.impulse[a] += (float)sum[a];
         c.angular[a] += (float)sum[3 + a];
       }
+      // a needle's tip inside has no grid contact: its mass sum carries the time integral
+      // of the material's presence ahead of it instead (needleTipResistance)
+      c.mass += (float)sum[6];
     }
     exec_.forEach(all.size(), kernels::Fill<BladeImpulse>{bladeImpulses_.data(), BladeImpulse{}});
     return out;
@@ -274,7 +296,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// after placeShapes). Nothing without a blade in reach.
   void recordCuts(float dt) {
     pushing_ = false;
-    if (!blades_ || partCount() == 0) return;
+    if (!(blades_ || tips_) || partCount() == 0) return;
     const auto t0 = Clock::now();
     pushing_ = bladeImpulses_.size() > 0;
     BladeImpulse* impulses = pushing_ ? bladeImpulses_.data() : nullptr;
@@ -332,7 +354,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     if (shapes_.partCount() == 0) return;
     const int nParts = partCount(), nBodies = shapes_.bodyCount();
     const auto t0 = Clock::now();
-    shapes_.exchange(bodyGravity ? dt : 0.f, [&](int pass) {
+    shapes_.exchange(dt, bodyGravity ? dt : 0.f, [&](int pass) {
       exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), pass);
     });
     timings.contact += seconds(t0);
@@ -403,6 +425,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   ExecArray<BladeImpulse, Exec> bladeImpulses_;
   ExecArray<Vec3f, Exec> push_;  ///< cuttingPush()
   bool pushing_ = false;         ///< of the current substep (recordCuts)
+  bool tips_ = false;            ///< a needle's tip is inside the material (kPartTipInside)
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveState)
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER

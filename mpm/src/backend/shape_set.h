@@ -24,8 +24,8 @@ struct PlaceParts {
 
 struct StartBodyExchange {
   BodyView* bodies;
-  float dt;
-  MPM_HD void operator()(size_t i) const { startBodyExchange(bodies[i], dt); }
+  float dt, gravityDt;
+  MPM_HD void operator()(size_t i) const { startBodyExchange(bodies[i], dt, gravityDt); }
 };
 
 struct PredictBodies {
@@ -83,8 +83,11 @@ class ShapeSet {
     std::vector<ContactSums> zero(bodies.size(), ContactSums{});
     record_.resizeDiscard(bodies.size());
     exec_.copyToDevice(record_.data(), zero.data(), zero.size() * sizeof(ContactSums));
-    anyDynamic_ = false;
-    for (const BodyView& b : bodies) anyDynamic_ = anyDynamic_ || b.dynamic;
+    anyDynamic_ = anyCurve_ = false;
+    for (const BodyView& b : bodies) {
+      anyDynamic_ = anyDynamic_ || b.dynamic;
+      anyCurve_ = anyCurve_ || b.mode == kContactCurve;  // a needle's shaft friction needs the substep
+    }
   }
 
   /// Places the parts at their bodies' poses, bounds grown by `margin` and the band.
@@ -97,9 +100,9 @@ class ShapeSet {
   /// then the applying pass and the bodies' velocities from what they received.
   /// `contactPass(pass)` runs one contact pass over the material's nodes into stepSums().
   template <class ContactPass>
-  void exchange(float gravityDt, ContactPass&& contactPass) {
+  void exchange(float dt, float gravityDt, ContactPass&& contactPass) {
+    if (anyDynamic_ || anyCurve_) exec_.forEach(bodies_.size(), kernels::StartBodyExchange{bodies_.data(), dt, gravityDt});
     if (anyDynamic_) {
-      exec_.forEach(bodies_.size(), kernels::StartBodyExchange{bodies_.data(), gravityDt});
       for (int k = 0; k < kBodyPredictionSteps; ++k) {
         contactPass(0);
         exec_.forEach(bodies_.size(), kernels::PredictBodies{bodies_.data(), stepSums_.data()});
@@ -162,6 +165,7 @@ class ShapeSet {
   ExecArray<PartView, Exec> parts_;
   ExecArray<ContactSums, Exec> stepSums_, record_;
   bool anyDynamic_ = false;
+  bool anyCurve_ = false;  ///< a curve's body (kContactCurve) is among them
   struct MeshCopy {
     std::shared_ptr<const SignedDistanceGrid> grid;  ///< kept alive: its address stays its own
     std::unique_ptr<ExecArray<float, Exec>> values;

@@ -1,5 +1,7 @@
 #include "scene/shape_exchange.h"
 
+#include <algorithm>
+#include <cmath>
 #include <memory>
 
 #include "shapes/shape_builder.h"
@@ -33,8 +35,18 @@ bool moved(const BodyView& b) {
 
 }  // namespace
 
-BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const SceneSettings& settings,
-                     SimBackend& backend) {
+float trackPressurePerDensity(const ObjectTable& objects) {
+  float most = 0.f;
+  for (size_t i = 0; i < objects.size(); ++i)
+    if (objects.alive(i)) {
+      const MaterialParams& m = objects[i].material;
+      most = std::max(most, m.mu / m.density);
+    }
+  return most;
+}
+
+BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const CurveTable& curves,
+                     const ObjectTable& objects, const SceneSettings& settings, SimBackend& backend) {
   std::vector<BodyView> bodies;
   std::vector<PartView> parts;
   std::vector<const SignedDistanceGrid*> meshes;
@@ -65,6 +77,19 @@ BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const
     appendSlicer(slicers[i].desc, slicers[i].state, 0.5f * settings.dx, domainCentre(settings), curved, values, bodies,
                  parts);
   }
+  map.curves.assign(curves.size(), -1);
+  const float pressure = trackPressurePerDensity(objects);
+  for (size_t i = 0; i < curves.size(); ++i) {
+    if (!curves.alive(i)) continue;
+    map.curves[i] = (int)bodies.size();
+    const CurveRecord& c = curves[i];
+    if (c.needle)
+      appendNeedle(c.arc, c.state, c.tipInside, thinPartHalfThickness(settings), settings.dx, pressure,
+                   domainCentre(settings), bodies, parts);
+    else
+      appendThread(c.thread, c.thread.points, c.thread.velocities, thinPartHalfThickness(settings),
+                   domainCentre(settings), bodies, parts);
+  }
   backend.releaseMeshesExcept(meshes);
   backend.setShapes(bodies, parts);
   return map;
@@ -85,10 +110,38 @@ void readPose(const BodyView& b, Pose& pose) {
 }
 }  // namespace
 
-void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, const BodyMap& map, SimBackend& backend) {
+namespace {
+/// A needle's tip after an advance of `dt` whose tip body took `tip`: a blunt tip breaks in
+/// when it pressed on the material along its tangent with punctureForce or more, one inside
+/// comes out when the material's presence ahead of it (the sums' mass, needleTipResistance)
+/// averaged under a hundredth of the half ball's.
+void updateTip(CurveRecord& c, const ContactSums& tip, float dt) {
+  const float a = c.arc.endAngle;
+  const Vec3f t = rotationMatrix(c.state.pose.rotation) * Vec3f{-std::sin(a), std::cos(a), 0.f};
+  if (!c.tipInside) {
+    const float pressing = -dot(Vec3f{tip.impulse[0], tip.impulse[1], tip.impulse[2]}, t) / dt;
+    c.tipInside = pressing > 0.f && pressing >= c.arc.punctureForce;
+  } else {
+    c.tipInside = tip.mass / dt >= 0.01f;
+  }
+}
+}  // namespace
+
+void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, CurveTable& curves, const BodyMap& map, float dt,
+                    SimBackend& backend) {
   std::vector<BodyView> bodies;
   backend.readBodies(bodies);
   const std::vector<ContactSums> impulses = backend.takeImpulses();
+  for (size_t i = 0; i < curves.size(); ++i) {
+    const int b = i < map.curves.size() ? map.curves[i] : -1;
+    if (!curves.alive(i) || b < 0) continue;
+    CurveRecord& c = curves[i];
+    c.impulses.resize(c.bodyCount());
+    for (size_t k = 0; k < c.bodyCount(); ++k) c.impulses[k] = impulseOf(impulses[b + k]);
+    if (!c.needle) continue;
+    readPose(bodies[b], c.state.pose);  // kinematic: it moved on with its velocity
+    updateTip(c, impulses[b + 1], dt);
+  }
   for (size_t i = 0; i < slicers.size(); ++i) {
     const int b = i < map.slicers.size() ? map.slicers[i] : -1;
     if (!slicers.alive(i) || b < 0) continue;

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "backend/sim_backend.h"
+#include "scene/particle_seeding.h"
 #include "scene/slot_table.h"
 #include "shapes/shape_builder.h"
 
@@ -28,19 +29,44 @@ struct SlicerRecord {
 };
 using SlicerTable = SlotTable<SlicerRecord, SlicerId>;
 
-/// Where the scene's shapes and slicers are among the backend's bodies (-1: not there).
-/// A slicer is two bodies, its faces at the index given and its spine after them.
-struct BodyMap {
-  std::vector<int> shapes, slicers;
+/// A curve as the scene keeps it: a needle (its state is the caller's, its tip's state
+/// the scene's) or a thread (its points and their velocities the caller's).
+struct CurveRecord {
+  bool needle = true;
+  ArcDesc arc;              ///< a needle's
+  LineSegmentsDesc thread;  ///< a thread's, its points and velocities as last set
+  ShapeState state;         ///< a needle's
+  bool tipInside = false;   ///< a needle's tip broke in and has not come out since
+  /// Per body: a needle's wire and tip, a thread's segments; about each body's centre (a
+  /// needle's frame origin, a segment's midpoint)
+  std::vector<ShapeImpulse> impulses;
+  size_t bodyCount() const { return needle ? 2 : thread.points.size() - 1; }
 };
+using CurveTable = SlotTable<CurveRecord, CurveId>;
+
+/// Where the scene's shapes, slicers and curves are among the backend's bodies (-1: not
+/// there). A slicer is two bodies, its faces at the index given and its spine after them;
+/// a curve's bodies (CurveRecord::bodyCount) start at the index given.
+struct BodyMap {
+  std::vector<int> shapes, slicers, curves;
+};
+
+/// The pressure of the material on a needle's shaft per unit density [m^2/s^2]: the
+/// track the tip opened is held shut by the material around it, strained by order one
+/// where the wire holds it open, so its pressure is about the shear modulus; taken from
+/// the stiffest live material (per density: the shaft's friction acts on the grid's mass).
+float trackPressurePerDensity(const ObjectTable& objects);
 
 /// Hands the live shapes, then the live slicers, to the backend (bodies in slot order,
 /// then parts); returns where each slot's bodies are.
-BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const SceneSettings& settings,
-                     SimBackend& backend);
+BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const CurveTable& curves,
+                     const ObjectTable& objects, const SceneSettings& settings, SimBackend& backend);
 
 /// Reads the shapes' motion and the shapes' and slicers' impulses back after an advance
 /// (`map` from uploadShapes).
-void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, const BodyMap& map, SimBackend& backend);
+/// A needle's tip breaks in when the force on it along its tangent reaches its
+/// punctureForce, and is out again when no material lies ahead of it over an advance of `dt`.
+void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, CurveTable& curves, const BodyMap& map, float dt,
+                    SimBackend& backend);
 
 }  // namespace mpm

@@ -21,6 +21,13 @@ float SubstepBounds::maxSubstep() const {
     if (shapes.alive(i)) shapeSpeed = std::max(shapeSpeed, norm(shapes[i].state.linearVelocity));
   for (size_t i = 0; i < slicers.size(); ++i)
     if (slicers.alive(i)) shapeSpeed = std::max(shapeSpeed, norm(slicers[i].state.linearVelocity));
+  for (size_t i = 0; i < curves.size(); ++i) {
+    if (!curves.alive(i)) continue;
+    const CurveRecord& c = curves[i];
+    if (c.needle)  // its tip is the fastest point of it
+      shapeSpeed = std::max(shapeSpeed, norm(c.state.linearVelocity) + norm(c.state.angularVelocity) * c.arc.radius);
+    for (const Vec3f& v : c.thread.velocities) shapeSpeed = std::max(shapeSpeed, norm(v));
+  }
   const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
   float dtMax = backend.stableTimeStep();
   if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflNumber * settings.dx / speed);

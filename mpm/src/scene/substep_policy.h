@@ -15,6 +15,7 @@ struct SubstepBounds {
   const ObjectTable& objects;
   const ShapeTable& shapes;
   const SlicerTable& slicers;
+  const CurveTable& curves;
   float maxParticleSpeed;  ///< fastest particle after the last advance, or as seeded [m/s]
   SimBackend& backend;     ///< not const: stableTimeStep() may finish a deferred setup
 

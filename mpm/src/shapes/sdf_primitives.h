@@ -155,3 +155,38 @@ MPM_HD float sdfGridSample(const float* values, const int dims[3], Vec3f lower, 
 }
 
 }  // namespace mpm
+
+namespace mpm {
+
+/// Distance from p to the centre line of a circular arc of radius R about the origin in the
+/// x-y plane, from angle a0 to a1 (a0 < a1 < a0 + 2 pi); `t` the unit tangent at the
+/// nearest point (toward a1), `n` the unit direction from it to p; `beyond` whether the
+/// nearest point is an end of the arc (p lies past it).
+MPM_HD float arcLineDistance(Vec3f p, float R, float a0, float a1, Vec3f& n, Vec3f& t, bool& beyond) {
+  float theta = atan2f(p.y, p.x);
+  // the angle relative to a0 in [0, 2 pi)
+  float rel = theta - a0;
+  const float twoPi = 6.2831853f;
+  rel -= twoPi * floorf(rel / twoPi);
+  const float span = a1 - a0;
+  float a = a0 + rel;
+  beyond = false;
+  if (rel > span) {  // past an end: the nearer one
+    beyond = true;
+    const Vec3f e0{R * cosf(a0), R * sinf(a0), 0.f}, e1{R * cosf(a1), R * sinf(a1), 0.f};
+    a = dot(p - e0, p - e0) < dot(p - e1, p - e1) ? a0 : a1;
+  }
+  const float c = cosf(a), s = sinf(a);
+  const Vec3f foot{R * c, R * s, 0.f};
+  t = Vec3f{-s, c, 0.f};
+  const Vec3f d = p - foot;
+  const float len = norm(d);
+  if (len > 1e-12f) {
+    n = (1.f / len) * d;
+  } else {  // on the centre line: any direction across it
+    n = Vec3f{0.f, 0.f, 1.f};
+  }
+  return len;
+}
+
+}  // namespace mpm

@@ -364,3 +364,137 @@ void appendSlicer(const QuadSlicerDesc& d, const ShapeState& state, float faceBa
 }
 
 }  // namespace mpm
+
+namespace mpm {
+
+void validateCurveDesc(const ArcDesc& d) {
+  validate::positive("ArcDesc.radius", d.radius);
+  validate::finite("ArcDesc.startAngle", d.startAngle);
+  validate::finite("ArcDesc.endAngle", d.endAngle);
+  const float span = d.endAngle - d.startAngle;
+  if (!(span > 0.f) || !(span < 6.2831853f))
+    throw InvalidArgument("ArcDesc.endAngle", validate::show(d.endAngle),
+                          "must lie in (startAngle, startAngle + 2 pi) (startAngle = " + validate::show(d.startAngle) + ")");
+  validate::positive("ArcDesc.wireRadius", d.wireRadius);
+  if (d.wireRadius >= d.radius)
+    throw InvalidArgument("ArcDesc.wireRadius", validate::show(d.wireRadius), "must be less than the arc's radius");
+  validate::finite("ArcDesc.friction", d.friction);
+  if (d.friction < 0.f) throw InvalidArgument("ArcDesc.friction", validate::show(d.friction), "must be >= 0");
+  validate::finite("ArcDesc.punctureForce", d.punctureForce);
+  if (d.punctureForce < 0.f)
+    throw InvalidArgument("ArcDesc.punctureForce", validate::show(d.punctureForce), "must be >= 0 (0: breaks in at first touch)");
+  validateShapeState({d.pose, d.linearVelocity, d.angularVelocity});
+}
+
+void validateCurvePoints(const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities, size_t count) {
+  if (points.size() != count)
+    throw InvalidArgument("LineSegmentsDesc.points", std::to_string(points.size()) + " points",
+                          count == 0 ? "needs at least two" : "must be " + std::to_string(count) + ", the thread's");
+  if (!velocities.empty() && velocities.size() != points.size())
+    throw InvalidArgument("LineSegmentsDesc.velocities", std::to_string(velocities.size()) + " velocities",
+                          "must be one per point (" + std::to_string(points.size()) + ") or none");
+  for (size_t i = 0; i < points.size(); ++i) {
+    validate::finite("LineSegmentsDesc.points[" + std::to_string(i) + "]", points[i]);
+    if (i > 0 && !(norm(points[i] - points[i - 1]) > 0.f))
+      throw InvalidArgument("LineSegmentsDesc.points[" + std::to_string(i) + "]", "the point before it",
+                            "must differ from the point before it (a segment of length 0)");
+  }
+  for (size_t i = 0; i < velocities.size(); ++i)
+    validate::finite("LineSegmentsDesc.velocities[" + std::to_string(i) + "]", velocities[i]);
+}
+
+void validateCurveDesc(const LineSegmentsDesc& d) {
+  if (d.points.size() < 2)
+    throw InvalidArgument("LineSegmentsDesc.points", std::to_string(d.points.size()) + " points", "needs at least two");
+  validateCurvePoints(d.points, d.velocities, d.points.size());
+  validate::positive("LineSegmentsDesc.radius", d.radius);
+  validate::finite("LineSegmentsDesc.friction", d.friction);
+  if (d.friction < 0.f) throw InvalidArgument("LineSegmentsDesc.friction", validate::show(d.friction), "must be >= 0");
+  validate::finite("LineSegmentsDesc.drag", d.drag);
+  if (d.drag < 0.f || d.drag > 1.f)
+    throw InvalidArgument("LineSegmentsDesc.drag", validate::show(d.drag), "must lie in [0, 1]");
+  validate::finite("LineSegmentsDesc.linearDensity", d.linearDensity);
+  if (d.linearDensity < 0.f)
+    throw InvalidArgument("LineSegmentsDesc.linearDensity", validate::show(d.linearDensity), "must be >= 0 (0: kinematic)");
+  validate::finite("LineSegmentsDesc.gravity", d.gravity);
+}
+
+void appendNeedle(const ArcDesc& d, const ShapeState& state, bool tipInside, float minHalfThickness, float dx,
+                  float trackPressurePerDensity, Vec3f near, std::vector<BodyView>& bodies, std::vector<PartView>& parts) {
+  // the wire: its frame is the arc's, anchored at the arc's centre (a sphere around it)
+  ShapeDesc wire;
+  wire.parts.push_back(Geometry::sphere(d.radius + d.wireRadius));
+  const int wireBody = (int)bodies.size();
+  BodyView shaft = makeBody(wire, state, 0.f);
+  shaft.mode = kContactCurve;
+  shaft.friction = 0.f;  // the shaft's friction is its pressure's (frictionRate), not the grid's Coulomb
+  bodies.push_back(shaft);
+  PartView arc = makePart(wire.parts[0], wire, state, wireBody, 0.f, near);
+  arc.type = kPartArc;
+  arc.radius = d.wireRadius;
+  arc.arcRadius = d.radius;
+  arc.arcStart = d.startAngle;
+  arc.arcEnd = d.endAngle;
+  arc.band = std::max(minHalfThickness - d.wireRadius, 0.f);
+  // mu_k p pi d per unit length, p = rho (p / rho), spread over the disc of radius R
+  // (the weight's integral pi R^2 / 3) of material of density rho: per unit mass
+  const float R = kShaftFrictionReach * dx;
+  arc.frictionReach = R;
+  arc.frictionRate = d.friction * trackPressurePerDensity * 3.14159265f * 2.f * d.wireRadius / (3.14159265f * R * R / 3.f);
+  parts.push_back(arc);
+  // the tip: a blunt sphere of the wire's radius until it breaks in
+  ShapeDesc point;
+  Geometry g = Geometry::sphere(d.wireRadius);
+  g.localPose.position = {d.radius * std::cos(d.endAngle), d.radius * std::sin(d.endAngle), 0.f};
+  point.parts.push_back(g);
+  // sticky while pressed on: the surface cannot slide off a point (with Coulomb friction
+  // the material flowed round the sub-cell tip at a tenth of the force)
+  point.contact.mode = ContactMode::Sticky;
+  const int tipBody = (int)bodies.size();
+  bodies.push_back(makeBody(point, state, 0.f));
+  PartView tip = makePart(g, point, state, tipBody, minHalfThickness, near);
+  tip.type = tipInside ? kPartTipInside : kPartTip;
+  tip.tangent = {-std::sin(d.endAngle), std::cos(d.endAngle), 0.f};
+  parts.push_back(tip);
+}
+
+void appendThread(const LineSegmentsDesc& d, const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities,
+                  float minHalfThickness, Vec3f near, std::vector<BodyView>& bodies, std::vector<PartView>& parts) {
+  for (size_t i = 0; i + 1 < points.size(); ++i) {
+    const Vec3f a = points[i], b = points[i + 1], axis = b - a;
+    const float length = norm(axis);
+    const Vec3f va = velocities.empty() ? Vec3f{0.f, 0.f, 0.f} : velocities[i];
+    const Vec3f vb = velocities.empty() ? Vec3f{0.f, 0.f, 0.f} : velocities[i + 1];
+    ShapeDesc s;
+    Geometry g;
+    g.type = GeometryType::Capsule;
+    g.axis = 0;
+    g.radius = d.radius;
+    g.halfHeight = 0.5f * length;
+    s.parts.push_back(g);
+    s.contact.friction = d.friction;
+    s.contact.drag = d.drag;
+    s.pose.position = 0.5f * (a + b);
+    s.pose.rotation = rotationFromX((1.f / length) * axis);
+    s.linearVelocity = 0.5f * (va + vb);
+    s.angularVelocity = (1.f / (length * length)) * cross(axis, vb - va);  // the turn across the segment
+    if (d.linearDensity > 0.f) {
+      s.mass = d.linearDensity * length;
+      // a rod about its ends' axis; about its own axis the same (a spin about the axis
+      // changes nothing the tangent contact sees, and a tiny moment would be ill-conditioned)
+      const float across = s.mass * length * length / 12.f;
+      s.inertia = {across, across, across};
+      s.gravity = d.gravity;
+    }
+    const ShapeState state{s.pose, s.linearVelocity, s.angularVelocity};
+    const int body = (int)bodies.size();
+    BodyView bv = makeBody(s, state, 0.f);
+    bv.mode = kContactCurve;
+    bodies.push_back(bv);
+    PartView p = makePart(g, s, state, body, minHalfThickness, near);
+    p.tangent = {1.f, 0.f, 0.f};
+    parts.push_back(p);
+  }
+}
+
+}  // namespace mpm

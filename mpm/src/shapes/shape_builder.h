@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "mpm/curves.h"
 #include "mpm/shapes.h"
 #include "mpm/slicers.h"
 #include "shapes/shape_kernels.h"
@@ -52,6 +53,28 @@ struct CurvedBlade {
 void appendSlicer(const QuadSlicerDesc& desc, const ShapeState& state, float faceBand, Vec3f near,
                   const CurvedBlade* curved, const float* curvedValues, std::vector<BodyView>& bodies,
                   std::vector<PartView>& parts);
+
+/// Throws InvalidArgument naming the field for any invalid value of a curve.
+void validateCurveDesc(const ArcDesc& desc);
+void validateCurveDesc(const LineSegmentsDesc& desc);
+/// A thread's points and velocities (as validateCurveDesc checks them), for `count` points.
+void validateCurvePoints(const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities, size_t count);
+
+/// Radius about a needle's centre line within which its shaft's friction reaches the
+/// nodes, in cells (PartView::frictionReach: enough nodes across it that their sum does not
+/// flicker as the wire moves between them).
+constexpr float kShaftFrictionReach = 1.5f;
+
+/// A needle as two bodies, appended to `bodies` and `parts`: its wire (kContactCurve, a
+/// kPartArc whose shaft friction takes the material's pressure on the wire as
+/// `trackPressurePerDensity` [m^2/s^2] times its density) and its tip (a blunt frictional
+/// sphere, or with `tipInside` a kPartTipInside), at `state` (of the arc's frame).
+void appendNeedle(const ArcDesc& desc, const ShapeState& state, bool tipInside, float minHalfThickness, float dx,
+                  float trackPressurePerDensity, Vec3f near, std::vector<BodyView>& bodies, std::vector<PartView>& parts);
+/// A thread as one body per segment (kContactCurve capsules) through `points` moving at
+/// `velocities` (empty: at rest).
+void appendThread(const LineSegmentsDesc& desc, const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities,
+                  float minHalfThickness, Vec3f near, std::vector<BodyView>& bodies, std::vector<PartView>& parts);
 
 /// The part without its mesh pointer (kept non-template for the .cpp).
 PartView makePart(const Geometry& g, const ShapeDesc& desc, const ShapeState& state, int bodyIndex,

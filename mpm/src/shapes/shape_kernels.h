@@ -8,13 +8,22 @@
 
 namespace mpm {
 
-enum : int { kContactFrictional = 0, kContactSticky = 1, kContactBonded = 2 };
+/// kContactCurve: a curve's (mpm/curves.h): within the contact region only the slip along
+/// the curve's tangent survives (curveVelocity).
+enum : int { kContactFrictional = 0, kContactSticky = 1, kContactBonded = 2, kContactCurve = 3 };
 /// kPartBlade: a quad slicer's faces (sdfBladeFaces); its box is faceLower/faceUpper like a
 /// Box's, with the edge at faceLower.y and `radius` the spine's (solvers/cut_transfer.h).
 /// kPartCurvedBlade: a mesh slicer's faces, its sided distance sampled like a Mesh part's
 /// (buildBladeGrid), `bladeHalf` thick each side; the spine's axis runs from faceLower to
 /// faceUpper, `radius` its radius.
-enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh, kPartBlade, kPartCurvedBlade };
+/// kPartArc: a needle's wire, the arc arcRadius about the part's origin in its x-y plane
+/// from arcStart to arcEnd, `radius` thick. kPartTip: its sharp tip while outside the
+/// material, a blunt sphere of `radius` at the part's origin; kPartTipInside: the tip
+/// inside, no surface (it opens the material: needleTipResistance). A thread's segment is a
+/// kPartCapsule of a kContactCurve body. `tangent` (part frame): the tip's and the
+/// segment's direction.
+enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder, kPartMesh, kPartBlade, kPartCurvedBlade,
+             kPartArc, kPartTip, kPartTipInside };
 
 /// Whether a part is a slicer's blade (it cuts what it passes).
 MPM_HD bool isBlade(int type) { return type == kPartBlade || type == kPartCurvedBlade; }
@@ -34,6 +43,7 @@ struct BodyView {
   Vec3f gravity;        ///< acceleration between substeps [m/s^2] (dynamic)
   Vec3f comLocal;       ///< centre of mass in the shape frame [m]
   Vec3f v0, w0;         ///< velocities at the start of the substep (implicit update)
+  float substepDt = 0.f;///< [s] this substep's length, kept for a needle's shaft friction
   /// Motion since the shapes were uploaded: the centre of mass's displacement, and the
   /// rotation as R(t) R(upload)^T - I. Kept apart from the pose (small numbers, exactly 0
   /// for a body at rest), they place the parts (placePart) without the float rounding of a
@@ -88,6 +98,12 @@ struct PartView {
   /// The cost: material rests on it as on a part of half-thickness 0.75 dx.
   float band = 0.f;
   float bladeHalf = 0.f;  ///< kPartCurvedBlade: the faces' half-thickness to the grid [m]
+  float arcRadius = 0.f, arcStart = 0.f, arcEnd = 0.f;  ///< kPartArc [m, rad, rad]
+  Vec3f tangent{1.f, 0.f, 0.f};  ///< kPartTip, kPartTipInside, a thread's capsule (part frame)
+  /// kPartArc: the shaft's friction, as the most its slip along the wire may lose per second
+  /// at a node on the centre line [m/s^2] (weighted (1 - rho^2 / R^2)^2 with rho the node's
+  /// distance from the centre line, R = frictionReach [m]; needleShaftFriction)
+  float frictionRate = 0.f, frictionReach = 0.f;
 
   /// The sided distance of a curved blade at p (part frame) and the unit normal toward p's
   /// side; false where no blade is beside p (buildBladeGrid's kNoBlade within reach).
@@ -117,6 +133,14 @@ struct PartView {
         break;
       }
       case kPartBlade: d = sdfBladeFaces(p, faceLower, faceUpper, nl); break;
+      case kPartArc: {
+        Vec3f t;
+        bool beyond;
+        d = arcLineDistance(p, arcRadius, arcStart, arcEnd, nl, t, beyond) - radius;
+        break;
+      }
+      case kPartTip: d = sdfSphere(p, radius, nl); break;
+      case kPartTipInside: d = kNoSurface; nl = Vec3f{0.f, 1.f, 0.f}; break;
       case kPartCurvedBlade: {
         float sided;
         d = curvedBladeAt(p, sided, nl) ? fabsf(sided) - bladeHalf : kNoSurface;
@@ -128,6 +152,16 @@ struct PartView {
     }
     n = rotation * nl;
     return d;
+  }
+  /// A curve part's unit tangent (world) at the point nearest x; `beyond`: x lies past the
+  /// end of a needle's arc (its nearest point is an end).
+  MPM_HD Vec3f curveTangent(Vec3f x, bool& beyond) const {
+    beyond = false;
+    if (type != kPartArc) return rotation * tangent;
+    const Vec3f p = transpose(rotation) * (x - position);
+    Vec3f n, t;
+    arcLineDistance(p, arcRadius, arcStart, arcEnd, n, t, beyond);
+    return rotation * t;
   }
   MPM_HD bool mayTouch(Vec3f lo, Vec3f hi) const {
     return !(hi.x < boundsLower.x || lo.x > boundsUpper.x || hi.y < boundsLower.y ||
@@ -149,6 +183,30 @@ MPM_HD Vec3f contactVelocity(Vec3f v, Vec3f vRigid, Vec3f n, const BodyView& b) 
   // Coulomb: friction only ever slows the slip, by mu_k |v_n|, never reverses it
   const float keep = vtLen > 1e-20f ? fmaxf(1.f - b.friction * fabsf(vn) / vtLen, 0.f) : 0.f;
   return vRigid + (b.drag * keep) * vt;
+}
+
+/// Velocity of a grid node in a curve's contact region (seed 000 section IV-C): of its
+/// velocity relative to the curve only the part along the tangent t survives, then Coulomb
+/// friction (mu_k times the removed part) and drag on it; so a needle or a thread slides
+/// along itself but drags the material sideways, whichever way it moves.
+MPM_HD Vec3f curveVelocity(Vec3f v, Vec3f vRigid, Vec3f t, const BodyView& b) {
+  const Vec3f vrel = v - vRigid;
+  const Vec3f along = dot(vrel, t) * t;
+  const float alongLen = norm(along), across = norm(vrel - along);
+  const float keep = alongLen > 1e-20f ? fmaxf(1.f - b.friction * across / alongLen, 0.f) : 0.f;
+  return vRigid + (b.drag * keep) * along;
+}
+
+/// A needle's shaft friction on a node near its wire: the slip along the wire, relative to
+/// the wire, loses up to dt frictionRate w (never more than it has: Coulomb never reverses
+/// it). Acting on the grid's velocity it is implicit, however light the node.
+MPM_HD Vec3f needleShaftFriction(Vec3f v, Vec3f vRigid, Vec3f t, float rho, const PartView& part, float dt) {
+  const float R = part.frictionReach;
+  if (!(part.frictionRate > 0.f) || rho >= R) return v;
+  const float q = 1.f - rho * rho / (R * R);
+  const float slip = dot(v - vRigid, t);
+  const float lose = fminf(fabsf(slip), dt * part.frictionRate * q * q);
+  return v - (slip > 0.f ? lose : -lose) * t;
 }
 
 /// Momentum a node exchanges with a body, accumulated per body: the impulse on the
@@ -208,6 +266,30 @@ constexpr float kRestingReach = 0.65f;
 /// 4-6 % short of MTLED's, no better on finer grids.
 constexpr float kGluedReach = 1.f;
 
+/// Contact of one grid node with a curve's part (kContactCurve): curveVelocity within its
+/// contact region (the band: 0.75 dx about a thin wire's centre line), and a needle's shaft
+/// friction within its reach; past a needle's arc ends no friction (the tip's resistance is
+/// the particles', needleTipResistance).
+MPM_HD bool contactNodeCurve(Vec3f x, float mass, Vec3f& v, const PartView& part, const BodyView& b, ContactSums& sums,
+                             int pass) {
+  Vec3f n;
+  const float phi = part.distance(x, n);
+  const bool inBand = phi < fmaxf(b.band, part.band);
+  const float rho = phi + part.radius;  // from the centre line
+  if (!inBand && !(rho < part.frictionReach)) return false;
+  bool beyond;
+  const Vec3f t = part.curveTangent(x, beyond);
+  const Vec3f c = x - phi * n;  // the wire's surface: rigid velocity and lever taken there
+  const Vec3f vRigid = b.velocityAt(c);
+  Vec3f vNew = inBand ? curveVelocity(v, vRigid, t, b) : v;
+  if (!beyond) vNew = needleShaftFriction(vNew, vRigid, t, rho, part, b.substepDt);
+  const Vec3f dp = mass * (v - vNew);
+  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) return false;
+  addContact(sums, dp, c - b.com, mass);
+  if (pass == 1) v = vNew;
+  return true;
+}
+
 /// Contact of one grid node with one part. Pass 0 (dynamic bodies only) measures what an
 /// immovable body would take from the node without changing it; pass 1 applies the
 /// contact against the body's updated velocity and records the momentum exchanged.
@@ -231,6 +313,7 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
   const PartView& part = parts[p];
   const BodyView& b = bodies[part.body];
   if (pass == 0 && !b.dynamic) return false;
+  if (b.mode == kContactCurve) return contactNodeCurve(x, mass, v, part, b, sums, pass);
   Vec3f n, nBar;
   const float phiNode = part.distance(x, n);
   const float phiBar = part.distance(xbar, nBar);
@@ -273,7 +356,10 @@ MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float to
     if (!parts[i].mayTouch(x, x)) continue;
     Vec3f n;
     const float phi = parts[i].distance(x, n);
-    if (phi < 0.f) x -= phi * n;
+    bool beyond = false;
+    // past a needle's arc ends the tip decides (a blunt tip pushes, one inside opens)
+    if (phi < 0.f && parts[i].type == kPartArc) parts[i].curveTangent(x, beyond);
+    if (phi < 0.f && !beyond) x -= phi * n;
     touch = touch || phi < touchDistance;
   }
   return touch;
@@ -384,13 +470,14 @@ MPM_HD void predictBodyVelocity(BodyView& b, const ContactSums& s) {
 /// -0.38 dx; two: 0.36 / 0.16 / -0.24 dx; three: 0.36 / 0.16 / -0.04 dx, PB-MPM -0.04 dx.
 constexpr int kBodyPredictionSteps = 3;
 
-/// Before the contact passes: a dynamic body's gravity for the substep (none for `dt` 0),
+/// Before the contact passes: the substep's length `dt`, a dynamic body's gravity for it (none for `gravityDt` 0),
 /// then the velocities its exchange starts from (v0, w0). Gravity must come before the
 /// contact so the contact can take it back; added after, a resting body would step
 /// g dt^2 into the tissue every substep (measured: 3.4 mm/s of steady sinking).
-MPM_HD void startBodyExchange(BodyView& b, float dt) {
+MPM_HD void startBodyExchange(BodyView& b, float dt, float gravityDt) {
+  b.substepDt = dt;
   if (!b.dynamic) return;
-  b.linearVelocity += dt * b.gravity;
+  b.linearVelocity += gravityDt * b.gravity;
   b.v0 = b.linearVelocity;
   b.w0 = b.angularVelocity;
   b.contactMass = -1.f;

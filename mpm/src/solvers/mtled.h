@@ -330,7 +330,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     timings.gridUpdate += seconds(t0);
 
     t0 = Clock::now();
-    if (shapes_.partCount() > 0) shapes_.exchange(s.dt, [&](int pass) { contactPass(pass); });
+    if (shapes_.partCount() > 0) shapes_.exchange(s.dt, s.dt, [&](int pass) { contactPass(pass); });
     shapes_.move(s.dt);
     timings.contact += seconds(t0);
 
