@@ -69,8 +69,9 @@ struct RecordCuts {
       if (part.type == kPartCurvedBlade && part.mayTouch(P.x[i], P.x[i]))
         recordCurvedCut(P.cut[i], P.x[i], part, geo);
       if (part.type == kPartTipInside) {
-        const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
-        if (gc > 0.f && part.mayTouch(P.x[i], P.x[i])) {
+        // the material's presence ahead of the tip is counted without toughness too
+        const float gc = materials[P.object[i]].toughness;
+        if (impulses && part.mayTouch(P.x[i], P.x[i])) {
           BladeImpulse& J = impulses[(size_t)blade * P.count + i];
           float presence;
           const Vec3f f = needleTipResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc,
@@ -197,8 +198,9 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
       tips_ = tips_ || p.type == kPartTipInside;
     }
     everCut_ = everCut_ || blades_;
-    // the resistance to cutting, per particle and blade, summed over the advance
-    const size_t n = toughness_ ? bladeBodies_.size() * count_ : 0;
+    // the resistance to cutting and to needles' tips, per particle and blade, summed over
+    // the advance
+    const size_t n = toughness_ || tips_ ? bladeBodies_.size() * count_ : 0;
     bladeImpulses_.resizeDiscard(n);
     push_.resizeDiscard(n ? count_ : 0);
     exec_.forEach(n, kernels::Fill<BladeImpulse>{bladeImpulses_.data(), BladeImpulse{}});
@@ -288,20 +290,28 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// Whether some particle may carry a cut: a blade is in the scene, or was since the
   /// particles were last replaced. Until then the transfers do not read the cut field.
   bool cuts() const { return everCut_; }
-  /// The impulse the resistance to cutting gives each particle this substep, which P2G
-  /// adds to the grid as a force (so standard MPM's FLIP sees it as the grid's change, not
-  /// a kick the particle keeps); null when no blade with tough material is in reach.
-  const Vec3f* cuttingPush() const { return pushing_ ? push_.data() : nullptr; }
+  /// The impulse the resistance to cutting (and to a needle's tip) gives each particle
+  /// this substep, which P2G adds to the grid as a force (so standard MPM's FLIP sees it as
+  /// the grid's change, not a kick the particle keeps); null when the shapes of this
+  /// advance have no such resistance. The same for every substep of an advance: the
+  /// solvers take it before recordCuts fills it (taken as "filled by the last recordCuts",
+  /// a substep whose last one had none in reach lost its push while the blade took its
+  /// share: 3 % of an insertion's momentum went missing).
+  const Vec3f* cuttingPush() const { return push_.size() > 0 ? push_.data() : nullptr; }
   /// Records the cuts of the blades in reach on the particles beside them (before P2G,
-  /// after placeShapes). Nothing without a blade in reach.
+  /// after placeShapes), and the resistances of this substep. Nothing without a blade or a
+  /// needle's tip in the scene; with them out of reach, the push is zero.
   void recordCuts(float dt) {
-    pushing_ = false;
-    if (!(blades_ || tips_) || partCount() == 0) return;
+    if (!(blades_ || tips_)) return;
     const auto t0 = Clock::now();
-    pushing_ = bladeImpulses_.size() > 0;
-    BladeImpulse* impulses = pushing_ ? bladeImpulses_.data() : nullptr;
-    exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), shapes_.bodies(), materials_.data(),
-                                              impulses, pushing_ ? push_.data() : nullptr, geo_, dt});
+    const bool resisting = bladeImpulses_.size() > 0;
+    if (partCount() == 0) {
+      if (resisting) exec_.forEach(count_, kernels::Fill<Vec3f>{push_.data(), Vec3f{0.f, 0.f, 0.f}});
+    } else {
+      exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), shapes_.bodies(), materials_.data(),
+                                                resisting ? bladeImpulses_.data() : nullptr,
+                                                resisting ? push_.data() : nullptr, geo_, dt});
+    }
     timings.contact += seconds(t0);
   }
 
@@ -424,7 +434,6 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   std::vector<int> bladeBodies_;  ///< the body of each blade part, in part order
   ExecArray<BladeImpulse, Exec> bladeImpulses_;
   ExecArray<Vec3f, Exec> push_;  ///< cuttingPush()
-  bool pushing_ = false;         ///< of the current substep (recordCuts)
   bool tips_ = false;            ///< a needle's tip is inside the material (kPartTipInside)
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveState)
   MPM_PARTICLE_FIELDS(MPM_MEMBER)

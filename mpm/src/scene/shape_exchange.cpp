@@ -21,6 +21,9 @@ float bondedBand(const SceneSettings& s) { return solverTraits(s.solver).meshles
 /// gets the band that makes up the difference (PartView::band). MTLED: none.
 float thinPartHalfThickness(const SceneSettings& s) { return solverTraits(s.solver).meshless ? 0.f : 0.75f * s.dx; }
 
+/// Radius of a thin curve's contact region on a grid [m] (kCurveReach cells).
+float curveReach(const SceneSettings& s) { return kCurveReach * s.dx; }
+
 /// Where the parts are anchored (PartView): the domain's centre.
 Vec3f domainCentre(const SceneSettings& s) { return 0.5f * (s.domain.lower + s.domain.upper); }
 
@@ -84,10 +87,10 @@ BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const
     map.curves[i] = (int)bodies.size();
     const CurveRecord& c = curves[i];
     if (c.needle)
-      appendNeedle(c.arc, c.state, c.tipInside, thinPartHalfThickness(settings), settings.dx, pressure,
+      appendNeedle(c.arc, c.state, c.tipInside, curveReach(settings), settings.dx, pressure,
                    domainCentre(settings), bodies, parts);
     else
-      appendThread(c.thread, c.thread.points, c.thread.velocities, thinPartHalfThickness(settings),
+      appendThread(c.thread, c.thread.points, c.thread.velocities, curveReach(settings),
                    domainCentre(settings), bodies, parts);
   }
   backend.releaseMeshesExcept(meshes);

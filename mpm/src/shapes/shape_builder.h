@@ -60,6 +60,9 @@ void validateCurveDesc(const LineSegmentsDesc& desc);
 /// A thread's points and velocities (as validateCurveDesc checks them), for `count` points.
 void validateCurvePoints(const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities, size_t count);
 
+/// Radius of a thin curve's contact region about its centre line, in cells.
+constexpr float kCurveReach = 0.75f;
+
 /// Radius about a needle's centre line within which its shaft's friction reaches the
 /// nodes, in cells (PartView::frictionReach: enough nodes across it that their sum does not
 /// flicker as the wire moves between them).
