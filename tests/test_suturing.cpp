@@ -383,7 +383,6 @@ TEST(Suturing, Validation) {
   EXPECT_THROW(scene.setCurveState(thread, ShapeState{}), InvalidArgument);
   EXPECT_THROW(scene.setCurvePoints(needleId, threadThroughBlock(3).points), InvalidArgument);
   EXPECT_THROW(scene.setCurvePoints(thread, threadThroughBlock(4).points), InvalidArgument);
-  EXPECT_THROW(scene.saveToMemory(), Error);  // checkpoints hold no curves yet: refused, not dropped
   scene.removeCurve(thread);
   EXPECT_FALSE(scene.isValid(thread));
   EXPECT_THROW(scene.curveImpulse(thread), InvalidArgument);
@@ -392,6 +391,67 @@ TEST(Suturing, Validation) {
   SceneSettings m = settingsFor(SolverType::Mtled);
   Scene meshless(m);
   EXPECT_THROW(meshless.addCurve(needle({0.f, 0.03f, 0.f}, 0.f)), InvalidArgument);
+}
+
+// Checkpoints hold curves: a scene saved mid-insertion (the tip inside, a thread beside
+// the needle) and loaded into a fresh scene steps on bit for bit: positions, the needle's
+// pose, impulse and tip, the thread's segment impulses.
+TEST(Suturing, Checkpoint) {
+  struct Run {
+    std::vector<Vec3f> x;
+    ShapeState needle;
+    ShapeImpulse impulse;
+    std::vector<ShapeImpulse> thread;
+    bool inside;
+  };
+  auto stepOn = [](Scene& scene, ParticleObjectId obj, CurveId needleId, CurveId threadId, int frames) {
+    for (int frame = 0; frame < frames; ++frame) {
+      ShapeState s = scene.curveState(needleId);
+      s.angularVelocity = {0.f, 0.f, 0.02f / kNeedleRadius};
+      scene.setCurveState(needleId, s);
+      scene.step(0.01f);
+    }
+    Run r;
+    scene.readPositions(obj, r.x);
+    r.needle = scene.curveState(needleId);
+    r.impulse = scene.curveImpulse(needleId);
+    r.thread = scene.segmentImpulses(threadId);
+    r.inside = scene.tipInside(needleId);
+    return r;
+  };
+  auto build = [](Scene& scene, ParticleObjectId& obj, CurveId& needleId, CurveId& threadId) {
+    obj = scene.addParticleObject(block());
+    scene.addShape(basePlate());
+    needleId = scene.addCurve(needle({-0.01f + kNeedleRadius, 0.021f, 0.f}, 0.03f));
+    LineSegmentsDesc t = threadThroughBlock(6);
+    t.linearDensity = 5e-5f;
+    threadId = scene.addCurve(t);
+  };
+  SceneSettings settings = settingsFor(SolverType::MlsMpm);
+  Scene scene(settings);
+  ParticleObjectId obj;
+  CurveId needleId, threadId;
+  build(scene, obj, needleId, threadId);
+  stepOn(scene, obj, needleId, threadId, 14);  // 2.8 mm of arc: the tip broke in
+  ASSERT_TRUE(scene.tipInside(needleId));
+  const std::vector<uint8_t> saved = scene.saveToMemory();
+  const Run straight = stepOn(scene, obj, needleId, threadId, 6);
+  Scene fresh(settings);
+  ParticleObjectId obj2;
+  CurveId needle2, thread2;
+  build(fresh, obj2, needle2, thread2);
+  fresh.removeCurve(needle2);  // a different scene, replaced whole by the checkpoint
+  fresh.loadFromMemory(saved);
+  const Run resumed = stepOn(fresh, obj, needleId, threadId, 6);
+  ASSERT_EQ(resumed.x.size(), straight.x.size());
+  for (size_t i = 0; i < straight.x.size(); ++i)
+    ASSERT_TRUE(resumed.x[i].x == straight.x[i].x && resumed.x[i].y == straight.x[i].y &&
+                resumed.x[i].z == straight.x[i].z) << "particle " << i;
+  EXPECT_EQ(resumed.needle.pose.rotation.z, straight.needle.pose.rotation.z);
+  EXPECT_EQ(resumed.impulse.angular.z, straight.impulse.angular.z);
+  EXPECT_EQ(resumed.inside, straight.inside);
+  ASSERT_EQ(resumed.thread.size(), straight.thread.size());
+  for (size_t k = 0; k < straight.thread.size(); ++k) EXPECT_EQ(resumed.thread[k].linear.z, straight.thread[k].linear.z);
 }
 
 }  // namespace

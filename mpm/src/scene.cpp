@@ -282,10 +282,6 @@ class SceneImpl {
 
   /// The whole scene as a checkpoint (state/scene_checkpoint.h), with the caller's bytes.
   std::vector<uint8_t> checkpoint(const std::vector<uint8_t>& attachment) const {
-    for (size_t i = 0; i < curves.size(); ++i)
-      if (curves.alive(i))
-        throw Error("save: the scene has a curve (CurveId " + std::to_string(i) +
-                    "); checkpoints do not hold needles and threads yet: remove them before saving");
     checkpoint::Writer w;
     checkpoint::writeSettings(w, settings);
     w.section("scene");
@@ -295,6 +291,7 @@ class SceneImpl {
     checkpoint::writeObjects(w, objects);
     checkpoint::writeShapes(w, shapes);
     checkpoint::writeSlicers(w, slicers);
+    checkpoint::writeCurves(w, curves);
     BackendState state;
     backend->exportState(state);
     checkpoint::writeBackendState(w, state);
@@ -311,6 +308,7 @@ class SceneImpl {
     ObjectTable objects{"ParticleObjectId", "particle object"};
     ShapeTable shapes{"ShapeId", "shape"};
     SlicerTable slicers{"SlicerId", "slicer"};
+    CurveTable curves{"CurveId", "curve"};
     BackendState backend;
     std::vector<uint8_t> attachment;
   };
@@ -325,6 +323,7 @@ class SceneImpl {
     checkpoint::readObjects(r, l.objects);
     checkpoint::readShapes(r, l.shapes);
     checkpoint::readSlicers(r, l.slicers);
+    checkpoint::readCurves(r, l.curves);
     checkpoint::readBackendState(r, l.backend);
     checkpoint::checkParticles(l.backend, l.objects, solverTraits(settings.solver).meshless);
     r.section("attachment");
@@ -342,7 +341,7 @@ class SceneImpl {
     objects = std::move(l.objects);
     shapes = std::move(l.shapes);
     slicers = std::move(l.slicers);
-    curves = CurveTable{"CurveId", "curve"};  // a checkpoint holds none (checkpoint())
+    curves = std::move(l.curves);
     bodies = BodyMap{};
     uploadMaterials();
     backend->importState(l.backend);

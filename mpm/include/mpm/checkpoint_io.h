@@ -22,7 +22,7 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "checkpoints are writte
 
 constexpr char kMagic[8] = {'M', 'P', 'M', 'C', 'K', 'P', 'T', '\0'};
 /// Raised whenever what a checkpoint holds, or its layout, changes; older files are refused.
-constexpr uint32_t kFormatVersion = 2;  // 2: particle cuts, slicers
+constexpr uint32_t kFormatVersion = 3;  // 2: particle cuts, slicers; 3: curves
 constexpr size_t kHeaderBytes = 8 + 4 + 4 + 8;
 
 /// Builds a payload; finish() gives the whole file.

@@ -172,6 +172,48 @@ void readSlicers(Reader& r, SlicerTable& slicers) {
   });
 }
 
+void writeCurves(Writer& w, const CurveTable& curves) {
+  w.section("curves");
+  curves.save(w, [](Writer& out, const CurveRecord& c) {
+    out.put((uint8_t)(c.needle ? 1 : 0));
+    out.put(c.arc);
+    out.put(c.state);
+    out.put((uint8_t)(c.tipInside ? 1 : 0));
+    const LineSegmentsDesc& t = c.thread;
+    out.putArray(t.points);
+    out.putArray(t.velocities);
+    out.put(t.radius);
+    out.put(t.friction);
+    out.put(t.drag);
+    out.put(t.linearDensity);
+    out.put(t.gravity);
+    out.putArray(c.impulses);
+  });
+}
+
+void readCurves(Reader& r, CurveTable& curves) {
+  r.section("curves");
+  curves.load(r, [](Reader& in) {
+    CurveRecord c;
+    c.needle = in.get<uint8_t>("a curve's kind") != 0;
+    c.arc = in.get<ArcDesc>("a needle");
+    c.state = in.get<ShapeState>("a needle's state");
+    c.tipInside = in.get<uint8_t>("a needle's tip") != 0;
+    LineSegmentsDesc& t = c.thread;
+    in.getArray(t.points, "a thread's points");
+    in.getArray(t.velocities, "a thread's velocities");
+    t.radius = in.get<float>("a thread");
+    t.friction = in.get<float>("a thread");
+    t.drag = in.get<float>("a thread");
+    t.linearDensity = in.get<float>("a thread");
+    t.gravity = in.get<Vec3f>("a thread");
+    in.getArray(c.impulses, "a curve's impulses");
+    if ((!c.needle && t.points.size() < 2) || c.impulses.size() != c.bodyCount())
+      throw CheckpointError(CheckpointError::Reason::Truncated, "a curve's points do not match its impulses");
+    return c;
+  });
+}
+
 void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless) {
   std::vector<size_t> count(objects.size(), 0);
   const HostParticles& p = s.particles;

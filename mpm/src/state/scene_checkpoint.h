@@ -31,6 +31,8 @@ void readShapes(Reader& r, ShapeTable& shapes);
 /// The slicers' table (their cuts are in the particles).
 void writeSlicers(Writer& w, const SlicerTable& slicers);
 void readSlicers(Reader& r, SlicerTable& slicers);
+void writeCurves(Writer& w, const CurveTable& curves);
+void readCurves(Reader& r, CurveTable& curves);
 
 /// Refuses (Truncated: the file is inconsistent) particles that name no live object, or
 /// objects whose particle count differs from their particles', or a meshless backend
