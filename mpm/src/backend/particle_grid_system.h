@@ -360,11 +360,13 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// bodies (ShapeSet::exchange), with gravity for the substep if `bodyGravity`. With
   /// every part out of reach the passes get no parts: they only zero the bodies' sums, and
   /// dynamic bodies feel gravity alone.
-  void exchangeContact(float dt, bool bodyGravity) {
+  /// `exchanges`: how often the solver exchanges with the shapes per substep (PB-MPM's
+  /// iterations): a needle's shaft friction budget (dt) is shared among them.
+  void exchangeContact(float dt, bool bodyGravity, int exchanges = 1) {
     if (shapes_.partCount() == 0) return;
     const int nParts = partCount(), nBodies = shapes_.bodyCount();
     const auto t0 = Clock::now();
-    shapes_.exchange(dt, bodyGravity ? dt : 0.f, [&](int pass) {
+    shapes_.exchange(dt / (float)exchanges, bodyGravity ? dt : 0.f, [&](int pass) {
       exec_.contactPass(bins_, shapes_.parts(), nParts, shapes_.bodies(), nBodies, shapes_.stepSums(), pass);
     });
     timings.contact += seconds(t0);

@@ -43,7 +43,7 @@ struct BodyView {
   Vec3f gravity;        ///< acceleration between substeps [m/s^2] (dynamic)
   Vec3f comLocal;       ///< centre of mass in the shape frame [m]
   Vec3f v0, w0;         ///< velocities at the start of the substep (implicit update)
-  float substepDt = 0.f;///< [s] this substep's length, kept for a needle's shaft friction
+  float substepDt = 0.f;///< [s] the time this exchange stands for (the substep, or PB-MPM's share of it): a needle's shaft friction acts over it
   /// Motion since the shapes were uploaded: the centre of mass's displacement, and the
   /// rotation as R(t) R(upload)^T - I. Kept apart from the pose (small numbers, exactly 0
   /// for a body at rest), they place the parts (placePart) without the float rounding of a

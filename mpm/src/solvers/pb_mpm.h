@@ -112,7 +112,7 @@ struct PbMpm {
                             it == 0 ? s.cuttingPush() : nullptr);
       const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
       s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
-      s.exchangeContact(p.dt, it == 0);
+      s.exchangeContact(p.dt, it == 0, n);
       s.gather(withParts(s, G2P{P, s.geometry(), p.dt, it == n - 1}));
     }
     s.moveShapes(p.dt);
