@@ -11,6 +11,7 @@
 
 #include "mpm/checkpoint_io.h"
 #include "mpm_bullet/shape_conversion.h"
+#include "mpm_bullet/suture.h"
 
 namespace mpm::bullet {
 
@@ -33,6 +34,27 @@ struct Coupler::SlicerLink {
   btTransform blade() const { return body->getCenterOfMassTransform() * local; }
   /// The blade's pose and velocities (of its frame's origin) from the body's motion.
   ShapeState state() const;
+};
+
+struct Coupler::NeedleLink {
+  btRigidBody* body;
+  CurveId curve;
+  btTransform local;  ///< the arc's frame in the body's centre-of-mass frame
+
+  btTransform arc() const { return body->getCenterOfMassTransform() * local; }
+  /// The arc frame's pose and velocities (of its origin) from the body's motion.
+  ShapeState state() const {
+    const btTransform t = arc();
+    return {toPose(t), toVec(body->getVelocityInLocalPoint(t.getOrigin() - body->getCenterOfMassPosition())),
+            toVec(body->getAngularVelocity())};
+  }
+};
+
+struct Coupler::ThreadLink {
+  btMultiBody* thread;
+  CurveId curve;
+  bool dynamic;
+  std::vector<btVector3> force, torque;  ///< per segment: applied over the current tick
 };
 
 // CouplingContact repeats ContactParams' fields but friction: a field added there must be
@@ -111,7 +133,17 @@ void Coupler::finishTick(float dt) {
       addLinkForce(l.multi, l.link, -l.force, -l.torque);
       l.force = l.torque = btVector3(0, 0, 0);
     }
+  takeBackThreadForces();
   if (userCallback_) userCallback_(dt);
+}
+
+void Coupler::takeBackThreadForces() {
+  for (ThreadLink& t : threads_)
+    for (size_t s = 0; s < t.force.size(); ++s) {
+      if (t.force[s].isZero() && t.torque[s].isZero()) continue;
+      addLinkForce(t.thread, (int)s - 1, -t.force[s], -t.torque[s]);
+      t.force[s] = t.torque[s] = btVector3(0, 0, 0);
+    }
 }
 
 void Coupler::hookedTick(float dt, bool pre) noexcept {
@@ -133,6 +165,7 @@ void Coupler::hookedTick(float dt, bool pre) noexcept {
         addLinkForce(l.multi, l.link, -l.force, -l.torque);
         l.force = l.torque = btVector3(0, 0, 0);
       }
+    takeBackThreadForces();
   }
 }
 
@@ -216,7 +249,106 @@ SlicerId Coupler::slicerOf(const btRigidBody* body) const {
   throw InvalidArgument("Coupler::slicerOf body", "not a slicer", "this body was never added with addSlicer");
 }
 
+CurveId Coupler::addNeedle(btRigidBody* body, const ArcDesc& needle) {
+  if (!body) throw InvalidArgument("Coupler::addNeedle body", "null", "needs a btRigidBody");
+  for (const NeedleLink& l : needles_)
+    if (l.body == body) throw InvalidArgument("Coupler::addNeedle body", "already a needle", "one needle per body");
+  const Pose& p = needle.pose;
+  NeedleLink link{body, {}, btTransform(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
+                                        btVector3(p.position.x, p.position.y, p.position.z))};
+  const ShapeState now = link.state();
+  ArcDesc placed = needle;
+  placed.pose = now.pose;
+  placed.linearVelocity = now.linearVelocity;
+  placed.angularVelocity = now.angularVelocity;
+  link.curve = scene_.addCurve(placed);  // validates the needle
+  needles_.push_back(link);
+  return link.curve;
+}
+
+CurveId Coupler::needleOf(const btRigidBody* body) const {
+  for (const NeedleLink& l : needles_)
+    if (l.body == body) return l.curve;
+  throw InvalidArgument("Coupler::needleOf body", "not a needle", "this body was never added with addNeedle");
+}
+
+namespace {
+std::vector<Vec3f> toVecs(const std::vector<btVector3>& v) {
+  std::vector<Vec3f> out(v.size());
+  for (size_t i = 0; i < v.size(); ++i) out[i] = toVec(v[i]);
+  return out;
+}
+}  // namespace
+
+CurveId Coupler::addThread(btMultiBody* thread, const ThreadCoupling& options) {
+  if (!thread) throw InvalidArgument("Coupler::addThread thread", "null", "needs a btMultiBody");
+  for (const ThreadLink& t : threads_)
+    if (t.thread == thread) throw InvalidArgument("Coupler::addThread thread", "already coupled", "one curve per thread");
+  LineSegmentsDesc d;
+  d.points = toVecs(threadPoints(thread));  // checks it is a chain
+  d.velocities = toVecs(threadPointVelocities(thread));
+  d.radius = options.radius;
+  if (!(d.radius > 0.f)) {
+    const btCollisionObject* base = thread->getBaseCollider();
+    const btCollisionShape* shape = base ? base->getCollisionShape() : nullptr;
+    if (!shape || shape->getShapeType() != CAPSULE_SHAPE_PROXYTYPE)
+      throw InvalidArgument("ThreadCoupling.radius", std::to_string(options.radius),
+                            "must be > 0 when the thread's base collider is not a btCapsuleShape");
+    d.radius = (float)static_cast<const btCapsuleShape*>(shape)->getRadius();
+  }
+  d.friction = options.friction;
+  d.drag = options.drag;
+  const int n = thread->getNumLinks() + 1;
+  if (options.dynamic) {
+    double mass = thread->getBaseMass(), length = 0;
+    for (int i = 0; i < n - 1; ++i) mass += thread->getLink(i).m_mass;
+    for (size_t k = 1; k < d.points.size(); ++k) length += std::sqrt(dot(d.points[k] - d.points[k - 1], d.points[k] - d.points[k - 1]));
+    if (!(mass > 0) || thread->hasFixedBase())
+      throw InvalidArgument("ThreadCoupling.dynamic", "true",
+                            "the thread needs mass in every link and a floating base; couple it with dynamic = false");
+    d.linearDensity = (float)(mass / length);
+    d.gravity = toVec(world_->getGravity());
+  }
+  ThreadLink link{thread, scene_.addCurve(d), options.dynamic, {}, {}};  // validates the thread
+  link.force.assign((size_t)n, btVector3(0, 0, 0));
+  link.torque.assign((size_t)n, btVector3(0, 0, 0));
+  threads_.push_back(link);
+  return link.curve;
+}
+
+CurveId Coupler::threadOf(const btMultiBody* thread) const {
+  for (const ThreadLink& t : threads_)
+    if (t.thread == thread) return t.curve;
+  throw InvalidArgument("Coupler::threadOf thread", "not coupled", "this multibody was never added with addThread");
+}
+
+void Coupler::removeThread(const btMultiBody* thread) {
+  for (size_t i = 0; i < threads_.size(); ++i)
+    if (threads_[i].thread == thread) {
+      ThreadLink& t = threads_[i];
+      for (size_t s = 0; s < t.force.size(); ++s)
+        if (!t.force[s].isZero() || !t.torque[s].isZero()) addLinkForce(t.thread, (int)s - 1, -t.force[s], -t.torque[s]);
+      scene_.removeCurve(t.curve);
+      threads_.erase(threads_.begin() + (long)i);
+      return;
+    }
+}
+
+void Coupler::setPreTickCallback(std::function<void(float)> callback) { preTickCallback_ = std::move(callback); }
+
 void Coupler::remove(const btCollisionObject* object) {
+  for (size_t i = 0; i < needles_.size(); ++i)
+    if (needles_[i].body == object) {
+      scene_.removeCurve(needles_[i].curve);
+      needles_.erase(needles_.begin() + (long)i);
+      break;
+    }
+  if (const auto* collider = btMultiBodyLinkCollider::upcast(object))
+    for (const ThreadLink& t : threads_)
+      if (t.thread == collider->m_multiBody) {
+        removeThread(t.thread);
+        break;
+      }
   for (size_t i = 0; i < slicers_.size(); ++i)
     if (slicers_[i].body == object) {
       scene_.removeSlicer(slicers_[i].slicer);
@@ -337,7 +469,15 @@ struct MultiBodyState {
 
 }  // namespace
 
+void Coupler::refuseCurvesInCheckpoints() const {
+  if (!needles_.empty() || !threads_.empty())
+    throw CheckpointError(CheckpointError::Reason::Unsupported,
+                          "a coupler with needles or threads (addNeedle, addThread) cannot be saved or loaded yet: "
+                          "their curves' state is not in checkpoints");
+}
+
 std::vector<uint8_t> Coupler::bodiesAttachment() const {
+  refuseCurvesInCheckpoints();
   checkpoint::Writer w;
   w.section("coupled bodies");
   w.put((uint64_t)links_.size());
@@ -366,6 +506,7 @@ std::vector<uint8_t> Coupler::saveToMemory() const { return scene_.saveToMemory(
 void Coupler::save(const std::string& path) const { scene_.save(path, bodiesAttachment()); }
 
 void Coupler::loadFromMemory(const std::vector<uint8_t>& bytes) {
+  refuseCurvesInCheckpoints();
   // read and check every body against this coupler's first, so a refusal changes nothing
   const std::vector<uint8_t> attachment = scene_.attachmentOf(bytes);
   checkpoint::Reader r(attachment.data(), attachment.size());
@@ -424,6 +565,8 @@ void Coupler::load(const std::string& path) { loadFromMemory(checkpoint::readFil
 void Coupler::setUserTickCallback(std::function<void(float)> callback) { userCallback_ = std::move(callback); }
 
 void Coupler::tick(float dt) {
+  lastDt_ = dt;
+  if (preTickCallback_) preTickCallback_(dt);
   // 1. shapes take the bodies' poses and velocities after Bullet's step
   for (const Link& l : links_) {
     const btTransform& t = l.object->getWorldTransform();
@@ -437,6 +580,9 @@ void Coupler::tick(float dt) {
     scene_.setShapeState(l.shape, {toPose(t), toVec(v), toVec(w)});
   }
   for (const SlicerLink& l : slicers_) scene_.setSlicerState(l.slicer, l.state());
+  for (const NeedleLink& l : needles_) scene_.setCurveState(l.curve, l.state());
+  for (const ThreadLink& t : threads_)
+    scene_.setCurvePoints(t.curve, toVecs(threadPoints(t.thread)), toVecs(threadPointVelocities(t.thread)));
   // 2. the tissue advances over the tick with its own substeps
   scene_.step(dt);
   // 3. the momentum the grid gave each shape goes back to its body
@@ -463,6 +609,33 @@ void Coupler::tick(float dt) {
     l.body->applyCentralImpulse(toBt(J.linear));
     l.body->applyTorqueImpulse(toBt(J.angular) + lever.cross(toBt(J.linear)));
     l.body->activate();
+  }
+  // a dynamic needle likewise, its impulse given about the arc frame's origin
+  for (const NeedleLink& l : needles_) {
+    if (l.body->isStaticOrKinematicObject()) continue;
+    const ShapeImpulse J = scene_.curveImpulse(l.curve);
+    const btVector3 lever = l.arc().getOrigin() - l.body->getCenterOfMassPosition();
+    l.body->applyCentralImpulse(toBt(J.linear));
+    l.body->applyTorqueImpulse(toBt(J.angular) + lever.cross(toBt(J.linear)));
+    l.body->activate();
+  }
+  // each thread segment takes its impulse (about the segment's midpoint) as a force over
+  // this tick on its link, moved to the link's centre of mass
+  for (ThreadLink& t : threads_) {
+    if (!t.dynamic) continue;
+    const std::vector<ShapeImpulse> J = scene_.segmentImpulses(t.curve);
+    if (J.size() != t.force.size())
+      throw InvalidArgument("Coupler thread", std::to_string(J.size()) + " segment impulses",
+                            "expected one per segment, " + std::to_string(t.force.size()));
+    const std::vector<btVector3> p = threadPoints(t.thread);
+    for (size_t s = 0; s < J.size(); ++s) {
+      const btVector3 mid = 0.5f * (p[s] + p[s + 1]);
+      const btVector3 lever = mid - threadSegmentTransform(t.thread, (int)s).getOrigin();
+      t.force[s] = toBt(J[s].linear) / dt;
+      t.torque[s] = (toBt(J[s].angular) + lever.cross(toBt(J[s].linear))) / dt;
+      addLinkForce(t.thread, (int)s - 1, t.force[s], t.torque[s]);
+    }
+    t.thread->wakeUp();
   }
 }
 

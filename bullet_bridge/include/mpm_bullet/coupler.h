@@ -82,6 +82,20 @@ struct CouplingContact {
   ContactParams resolve(float bodyFriction) const;
 };
 
+/// How a thread (a chain multibody, mpm_bullet/suture.h) is coupled: Coupler::addThread.
+struct ThreadCoupling {
+  /// [m] the thread's radius in the tissue; <= 0: the radius of the base collider's
+  /// btCapsuleShape (makeSutureThread's capsules).
+  float radius = 0.f;
+  float friction = 0.f;  ///< as LineSegmentsDesc::friction (mu_k of the slip along the thread)
+  float drag = 1.f;      ///< as LineSegmentsDesc::drag
+  /// true: the segments are dynamic in the scene (LineSegmentsDesc::linearDensity = the
+  /// links' total mass over the thread's length, gravity = the world's), and each
+  /// segment's impulse goes back to its link as a force over the tick. false: kinematic
+  /// segments, one-way (the thread pushes the tissue; its links get nothing back).
+  bool dynamic = true;
+};
+
 /// Contact settings and sampling for a coupled body.
 struct CouplingOptions {
   CouplingContact contact;
@@ -112,8 +126,53 @@ class Coupler {
   SlicerId addSlicer(btRigidBody* body, const QuadSlicerDesc& blade);
   /// Slicer of a body coupled with addSlicer, e.g. to read its last impulse.
   SlicerId slicerOf(const btRigidBody* body) const;
-  /// Stops coupling a body (its shape, its slicer: they leave the scene; cuts stay).
+  /// Couples a rigid body (kinematic or dynamic) as a suture needle (mpm/curves.h):
+  /// `needle.pose` is the arc's frame in the body's centre-of-mass frame (its velocities
+  /// are not used). Every tick the curve takes the body's motion (the arc frame origin's
+  /// velocity v + w x r), and a dynamic body receives Scene::curveImpulse (given about the
+  /// arc frame's origin; the lever torque is added here). The force on the needle over a
+  /// tick is that impulse over lastTickDt(). As with addSlicer, the body's collision shape
+  /// is not coupled by this. The needle is kinematic inside the scene (ArcDesc has no mass),
+  /// so this coupling is explicit: the body must be heavier than the tissue it drags
+  /// (tests/test_suturing_bullet.cpp: 10 to 50 g bodies thrown into a 30 kPa block at
+  /// dx 2.5 mm conserve momentum to 1e-6; a 5 g body diverged). Give it the mass of what
+  /// holds it (a NeedleDriver's hand and holder).
+  CurveId addNeedle(btRigidBody* body, const ArcDesc& needle);
+  /// Curve of a body coupled with addNeedle.
+  CurveId needleOf(const btRigidBody* body) const;
+  /// Couples a thread: a chain multibody (link i's parent i - 1, base symmetric about its
+  /// centre; makeSutureThread builds one) as a LineSegmentsDesc whose points are the
+  /// chain's (threadPoints: the base's outer end, each joint, the last link's outer end).
+  /// Every tick the points and their velocities (each from its segment's v + w x r) go to
+  /// the scene; with `options.dynamic` each segment's impulse (Scene::segmentImpulses,
+  /// segment 0 the base, segment i link i - 1) goes back to its link as a force over the
+  /// tick, added before the tick and taken back after it, as for multibody links.
+  ///
+  /// Stability (measured, tests/test_suturing_bullet.cpp and demos/suturing): a thread
+  /// thrown through a block (E 30 kPa, dx 2.5 mm, ticks of 1/960 s) is stable with
+  /// segments of two cells (5 mm) and 1e-2 kg/m, and blows up within a few ticks with
+  /// segments of one cell or with 1e-3 kg/m: the scene's implicit update of adjacent
+  /// light segments amplifies a zigzag between them (the scene alone, without Bullet:
+  /// point velocities +-0.02 m/s give segment velocity changes of 0.29 m/s in one 1/960 s
+  /// advance with 30 segments of 2 mm at 1e-3 kg/m, 1.2 m/s at 1e-4 kg/m). A thread
+  /// segment that shares grid nodes with a moving needle takes the needle's drag in one
+  /// tick: keep the thread away from where the needle goes in.
+  CurveId addThread(btMultiBody* thread, const ThreadCoupling& options = {});
+  /// Curve of a thread coupled with addThread.
+  CurveId threadOf(const btMultiBody* thread) const;
+  /// Stops coupling a thread (its curve leaves the scene).
+  void removeThread(const btMultiBody* thread);
+  /// Stops coupling a body (its shape, its slicer, its needle: they leave the scene; cuts
+  /// stay). A collider of a coupled thread removes the whole thread.
   void remove(const btCollisionObject* object);
+
+  /// Called at the start of each internal tick, before the coupling step, with the tick
+  /// length [s]: the place for a NeedleDriver's tick (mpm_bullet/suture.h). Like the user
+  /// callback it does not run while an error is kept (see the top of this file).
+  void setPreTickCallback(std::function<void(float)> callback);
+  /// Length of the last internal tick [s] (0 before the first): a needle's force is
+  /// Scene::curveImpulse / lastTickDt(), a segment's likewise.
+  float lastTickDt() const { return lastDt_; }
 
   /// Called after each internal tick, with the tick length [s].
   void setUserTickCallback(std::function<void(float)> callback);
@@ -134,7 +193,9 @@ class Coupler {
   /// on bit for bit as the run that was saved; with Bullet contacts they resume from the
   /// same poses and velocities. load() refuses (CheckpointError, Unsupported)
   /// a checkpoint whose coupled bodies differ in number or kind from this coupler's, and
-  /// then changes neither the scene nor the bodies.
+  /// then changes neither the scene nor the bodies. A coupler with needles or threads
+  /// (addNeedle, addThread) refuses both save and load (CheckpointError, Unsupported):
+  /// their curves' state is not in checkpoints yet.
   void save(const std::string& path) const;
   std::vector<uint8_t> saveToMemory() const;
   void load(const std::string& path);
@@ -154,6 +215,12 @@ class Coupler {
  private:
   struct Link;
   struct SlicerLink;
+  struct NeedleLink;
+  struct ThreadLink;
+  /// Takes back the thread segments' coupling forces of this tick (after it, or on error).
+  void takeBackThreadForces();
+  /// Throws CheckpointError (Unsupported) when needles or threads are coupled.
+  void refuseCurvesInCheckpoints() const;
   /// The coupled bodies' poses and velocities, as a checkpoint's attachment.
   std::vector<uint8_t> bodiesAttachment() const;
   ShapeId addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
@@ -162,7 +229,11 @@ class Coupler {
   Scene& scene_;
   std::vector<Link> links_;
   std::vector<SlicerLink> slicers_;
+  std::vector<NeedleLink> needles_;
+  std::vector<ThreadLink> threads_;
   std::function<void(float)> userCallback_;
+  std::function<void(float)> preTickCallback_;
+  float lastDt_ = 0.f;
   std::exception_ptr error_;
 };
 
