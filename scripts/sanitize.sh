@@ -53,7 +53,7 @@ ASAN_TARGETS=(test_constitutive test_free_fall test_conservation test_walls test
               test_validation test_backend test_shapes test_contact test_solvers test_mesh_sdf
               test_mesh_import test_mesh_objects test_bullet_coupling test_bullet_physics
               test_embedding test_floor test_output test_mtled test_scene_state test_stability
-              test_checkpoint test_cutting)
+              test_checkpoint test_cutting test_suturing test_suturing_bullet)
 ASAN_INCLUDE="."
 ASAN_EXCLUDE="_NOT_BUILT$"                                         # programs not built here
 ASAN_EXCLUDE+="|SelfWeight|Hertz|ThinCapsules|SeedCylinder"       # their programs are not built
@@ -71,6 +71,7 @@ ASAN_EXCLUDE+="|BulletPhysics\\..*StandardMpm"                       # 13-24 s e
 ASAN_EXCLUDE+="|Embedding\\.SnippetCouplesAUsersBulletWorld"         # > 25 s
 ASAN_EXCLUDE+="|Mtled\\.(SlipCompression|BondedCompression|PaperPointDerivatives)"  # each > 25 s
 ASAN_EXCLUDE+="|Cutting\\.(TheBladeFeelsTheToughness|ACutStaysCut)|CuttingConvergence"  # 12, 1.5, 17 s in Release
+ASAN_EXCLUDE+="|Suturing\\.(InsertionProfile|SlidesAlongItselfDragsSideways|TighteningAStitchClosesTheGap|ThreadSlidesAlongItself|InsertionConservesMomentum)"  # 27, 18, 11, 6.5, 4.5 s in Release
 
 # --- ThreadSanitizer ----------------------------------------------------------------------
 # The tests that drive the scene's step worker from the calling thread: advance() and
