@@ -25,29 +25,53 @@ struct Coupler::Link {
   btVector3 force{0, 0, 0}, torque{0, 0, 0};  ///< multibody: applied over the next tick
 };
 
-struct Coupler::SlicerLink {
+namespace {
+/// A tool's frame fixed in a rigid body: a blade's, a needle's arc's.
+struct BodyFrame {
   btRigidBody* body;
-  SlicerId slicer;
-  btTransform local;  ///< the blade's frame in the body's centre-of-mass frame
+  btTransform local;  ///< the tool's frame in the body's centre-of-mass frame
 
-  /// The blade's frame in the world.
-  btTransform blade() const { return body->getCenterOfMassTransform() * local; }
-  /// The blade's pose and velocities (of its frame's origin) from the body's motion.
-  ShapeState state() const;
-};
-
-struct Coupler::NeedleLink {
-  btRigidBody* body;
-  CurveId curve;
-  btTransform local;  ///< the arc's frame in the body's centre-of-mass frame
-
-  btTransform arc() const { return body->getCenterOfMassTransform() * local; }
-  /// The arc frame's pose and velocities (of its origin) from the body's motion.
+  BodyFrame(btRigidBody* b, const Pose& p)
+      : body(b),
+        local(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
+              btVector3(p.position.x, p.position.y, p.position.z)) {}
+  /// The tool's frame in the world.
+  btTransform world() const { return body->getCenterOfMassTransform() * local; }
+  /// The tool frame's pose and velocities (of its origin) from the body's motion.
   ShapeState state() const {
-    const btTransform t = arc();
+    const btTransform t = world();
     return {toPose(t), toVec(body->getVelocityInLocalPoint(t.getOrigin() - body->getCenterOfMassPosition())),
             toVec(body->getAngularVelocity())};
   }
+  /// A dynamic body takes an impulse given about the tool frame's origin.
+  void receive(const ShapeImpulse& J) const {
+    if (body->isStaticOrKinematicObject()) return;
+    const btVector3 linear(J.linear.x, J.linear.y, J.linear.z), angular(J.angular.x, J.angular.y, J.angular.z);
+    const btVector3 lever = world().getOrigin() - body->getCenterOfMassPosition();
+    body->applyCentralImpulse(linear);
+    body->applyTorqueImpulse(angular + lever.cross(linear));
+    body->activate();
+  }
+};
+
+/// A tool's description with the pose and velocities of its frame now.
+template <class Desc>
+Desc placedAt(Desc d, const ShapeState& now) {
+  d.pose = now.pose;
+  d.linearVelocity = now.linearVelocity;
+  d.angularVelocity = now.angularVelocity;
+  return d;
+}
+}  // namespace
+
+struct Coupler::SlicerLink {
+  BodyFrame frame;
+  SlicerId slicer;
+};
+
+struct Coupler::NeedleLink {
+  BodyFrame frame;
+  CurveId curve;
 };
 
 struct Coupler::ThreadLink {
@@ -220,55 +244,35 @@ std::vector<ShapeId> Coupler::addMultiBody(btMultiBody* body, const CouplingOpti
   return ids;
 }
 
-ShapeState Coupler::SlicerLink::state() const {
-  const btTransform t = blade();
-  return {toPose(t), toVec(body->getVelocityInLocalPoint(t.getOrigin() - body->getCenterOfMassPosition())),
-          toVec(body->getAngularVelocity())};
-}
-
 SlicerId Coupler::addSlicer(btRigidBody* body, const QuadSlicerDesc& blade) {
   if (!body) throw InvalidArgument("Coupler::addSlicer body", "null", "needs a btRigidBody");
   for (const SlicerLink& l : slicers_)
-    if (l.body == body) throw InvalidArgument("Coupler::addSlicer body", "already a slicer", "one blade per body");
-  const Pose& p = blade.pose;
-  SlicerLink link{body, {}, btTransform(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
-                                        btVector3(p.position.x, p.position.y, p.position.z))};
-  const ShapeState now = link.state();
-  QuadSlicerDesc placed = blade;
-  placed.pose = now.pose;
-  placed.linearVelocity = now.linearVelocity;
-  placed.angularVelocity = now.angularVelocity;
-  link.slicer = scene_.addSlicer(placed);  // validates the blade
+    if (l.frame.body == body) throw InvalidArgument("Coupler::addSlicer body", "already a slicer", "one blade per body");
+  SlicerLink link{BodyFrame(body, blade.pose), {}};
+  link.slicer = scene_.addSlicer(placedAt(blade, link.frame.state()));  // validates the blade
   slicers_.push_back(link);
   return link.slicer;
 }
 
 SlicerId Coupler::slicerOf(const btRigidBody* body) const {
   for (const SlicerLink& l : slicers_)
-    if (l.body == body) return l.slicer;
+    if (l.frame.body == body) return l.slicer;
   throw InvalidArgument("Coupler::slicerOf body", "not a slicer", "this body was never added with addSlicer");
 }
 
 CurveId Coupler::addNeedle(btRigidBody* body, const ArcDesc& needle) {
   if (!body) throw InvalidArgument("Coupler::addNeedle body", "null", "needs a btRigidBody");
   for (const NeedleLink& l : needles_)
-    if (l.body == body) throw InvalidArgument("Coupler::addNeedle body", "already a needle", "one needle per body");
-  const Pose& p = needle.pose;
-  NeedleLink link{body, {}, btTransform(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w),
-                                        btVector3(p.position.x, p.position.y, p.position.z))};
-  const ShapeState now = link.state();
-  ArcDesc placed = needle;
-  placed.pose = now.pose;
-  placed.linearVelocity = now.linearVelocity;
-  placed.angularVelocity = now.angularVelocity;
-  link.curve = scene_.addCurve(placed);  // validates the needle
+    if (l.frame.body == body) throw InvalidArgument("Coupler::addNeedle body", "already a needle", "one needle per body");
+  NeedleLink link{BodyFrame(body, needle.pose), {}};
+  link.curve = scene_.addCurve(placedAt(needle, link.frame.state()));  // validates the needle
   needles_.push_back(link);
   return link.curve;
 }
 
 CurveId Coupler::needleOf(const btRigidBody* body) const {
   for (const NeedleLink& l : needles_)
-    if (l.body == body) return l.curve;
+    if (l.frame.body == body) return l.curve;
   throw InvalidArgument("Coupler::needleOf body", "not a needle", "this body was never added with addNeedle");
 }
 
@@ -338,7 +342,7 @@ void Coupler::setPreTickCallback(std::function<void(float)> callback) { preTickC
 
 void Coupler::remove(const btCollisionObject* object) {
   for (size_t i = 0; i < needles_.size(); ++i)
-    if (needles_[i].body == object) {
+    if (needles_[i].frame.body == object) {
       scene_.removeCurve(needles_[i].curve);
       needles_.erase(needles_.begin() + (long)i);
       break;
@@ -350,7 +354,7 @@ void Coupler::remove(const btCollisionObject* object) {
         break;
       }
   for (size_t i = 0; i < slicers_.size(); ++i)
-    if (slicers_[i].body == object) {
+    if (slicers_[i].frame.body == object) {
       scene_.removeSlicer(slicers_[i].slicer);
       slicers_.erase(slicers_.begin() + (long)i);
       break;
@@ -579,8 +583,8 @@ void Coupler::tick(float dt) {
     }
     scene_.setShapeState(l.shape, {toPose(t), toVec(v), toVec(w)});
   }
-  for (const SlicerLink& l : slicers_) scene_.setSlicerState(l.slicer, l.state());
-  for (const NeedleLink& l : needles_) scene_.setCurveState(l.curve, l.state());
+  for (const SlicerLink& l : slicers_) scene_.setSlicerState(l.slicer, l.frame.state());
+  for (const NeedleLink& l : needles_) scene_.setCurveState(l.curve, l.frame.state());
   for (const ThreadLink& t : threads_)
     scene_.setCurvePoints(t.curve, toVecs(threadPoints(t.thread)), toVecs(threadPointVelocities(t.thread)));
   // 2. the tissue advances over the tick with its own substeps
@@ -601,24 +605,9 @@ void Coupler::tick(float dt) {
       l.multi->wakeUp();
     }
   }
-  // a dynamic scalpel takes the slicer's impulse, given about the blade's frame origin
-  for (const SlicerLink& l : slicers_) {
-    if (l.body->isStaticOrKinematicObject()) continue;
-    const ShapeImpulse J = scene_.slicerImpulse(l.slicer);
-    const btVector3 lever = l.blade().getOrigin() - l.body->getCenterOfMassPosition();
-    l.body->applyCentralImpulse(toBt(J.linear));
-    l.body->applyTorqueImpulse(toBt(J.angular) + lever.cross(toBt(J.linear)));
-    l.body->activate();
-  }
-  // a dynamic needle likewise, its impulse given about the arc frame's origin
-  for (const NeedleLink& l : needles_) {
-    if (l.body->isStaticOrKinematicObject()) continue;
-    const ShapeImpulse J = scene_.curveImpulse(l.curve);
-    const btVector3 lever = l.arc().getOrigin() - l.body->getCenterOfMassPosition();
-    l.body->applyCentralImpulse(toBt(J.linear));
-    l.body->applyTorqueImpulse(toBt(J.angular) + lever.cross(toBt(J.linear)));
-    l.body->activate();
-  }
+  // a dynamic scalpel or needle takes its impulse, given about its tool frame's origin
+  for (const SlicerLink& l : slicers_) l.frame.receive(scene_.slicerImpulse(l.slicer));
+  for (const NeedleLink& l : needles_) l.frame.receive(scene_.curveImpulse(l.curve));
   // each thread segment takes its impulse (about the segment's midpoint) as a force over
   // this tick on its link, moved to the link's centre of mass
   for (ThreadLink& t : threads_) {
