@@ -9,12 +9,12 @@
 // needle and thread inside show), suturing.csv (per frame: time, needle force, gap across
 // the wound, thread tension at the knot, wall time) and summary.txt.
 //
-// Status (dx 2.5 mm, 8 s, 160 frames, 5.0 min on 2 cores; MLS-MPM): the tip presses the
+// Status (dx 2.5 mm, 8 s, 160 frames, 5.5 min on 2 cores; MLS-MPM): the tip presses the
 // first surface in and breaks in at 0.03 N, the needle goes through both bites and comes
 // out with its eye (peak force 0.79 N). The wound is NOT closed by the thread yet: by
 // default the thread (a 3-0 suture, 0.05 g/m, 30 links) is coupled one way (its segments
 // drag the tissue, the tissue does not hold them), so it does not stay in the needle's
-// track and pulling it leaves the gap at 7.1 of 7.25 mm. Coupled both ways (--two-way)
+// track and pulling it leaves the gap at 7.13 of 7.25 mm. Coupled both ways (--two-way)
 // the thread comes off its knot (5 g/m: the pin 82 mm open at 3.2 s; 0.05 g/m: 31.8 mm by
 // 0.8 s): the tissue's forces reach the links explicitly over Bullet's tick while Bullet
 // alone solves the chain's joints and pins. Closing a stitch is shown with a prescribed
