@@ -30,26 +30,7 @@ TEST(Embedding, ReadmeShowsExactlyTheTestedSnippet) {
 }
 
 TEST(Embedding, SnippetCouplesAUsersBulletWorld) {
-  // the user's world, as they already have it
-  btDefaultCollisionConfiguration config;
-  btCollisionDispatcher dispatcher(&config);
-  btDbvtBroadphase broadphase;
-  btSequentialImpulseConstraintSolver solver;
-  btDiscreteDynamicsWorld dynamicsWorld(&dispatcher, &broadphase, &solver, &config);
-  dynamicsWorld.setGravity(btVector3(0, -9.81f, 0));
-  btStaticPlaneShape groundShape(btVector3(0, 1, 0), 0);
-  btRigidBody groundBody(0.f, nullptr, &groundShape);
-  dynamicsWorld.addRigidBody(&groundBody);
-  btBoxShape toolShape(btVector3(0.03f, 0.03f, 0.03f));
-  btVector3 inertia;
-  toolShape.calculateLocalInertia(0.5f, inertia);
-  btDefaultMotionState toolState(btTransform(btQuaternion::getIdentity(), btVector3(0, 0.2f, 0)));
-  btRigidBody toolBody(0.5f, &toolState, &toolShape, inertia);
-  dynamicsWorld.addRigidBody(&toolBody);
-  btDiscreteDynamicsWorld* world = &dynamicsWorld;
-  btRigidBody* tool = &toolBody;
-  btRigidBody* ground = &groundBody;
-
+#include "embed_world.inc"
 #include "embed_snippet.inc"
 
   for (int f = 0; f < 30; ++f) world->stepSimulation(1.f / 60, 10, 1.f / 240);

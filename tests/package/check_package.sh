@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The installable package: installs BUILD_DIR into a scratch prefix, then configures,
+# builds and runs tests/package/consumer against it with find_package(mpm_bullet). Then
+# configures the same consumer with add_subdirectory of the source tree (configure and
+# generate only: the library itself is what the first part built).
+# Usage: check_package.sh SOURCE_DIR BUILD_DIR WORK_DIR
+set -euo pipefail
+src="$1" build="$2" work="$3"
+rm -rf "$work"
+mkdir -p "$work"
+cmake --install "$build" --prefix "$work/prefix" > "$work/install.log"
+test -f "$work/prefix/share/doc/mpm_bullet/LICENSE"
+
+echo "== find_package(mpm_bullet) from $work/prefix"
+cmake -S "$src/tests/package/consumer" -B "$work/installed" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_PREFIX_PATH="$work/prefix"
+cmake --build "$work/installed" -j 2
+"$work/installed/consumer"
+
+echo "== add_subdirectory($src)"
+cmake -S "$src/tests/package/consumer" -B "$work/subdirectory" -DCMAKE_BUILD_TYPE=Release \
+      -DMPM_BULLET_SOURCE_DIR="$src" -DMPM_WITH_CUDA=OFF > "$work/subdirectory.log"
+# only the library's targets are there: no tests, demos or benchmarks of ours
+if grep -q "test_suturing\|demo_suturing\|bench_throughput" "$work/subdirectory/Makefile"; then
+  echo "check_package: add_subdirectory built our tests, demos or benchmarks" >&2
+  exit 1
+fi
+echo "check_package: both ways work"
