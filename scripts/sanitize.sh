@@ -53,7 +53,7 @@ ASAN_TARGETS=(test_constitutive test_free_fall test_conservation test_walls test
               test_validation test_backend test_shapes test_contact test_solvers test_mesh_sdf
               test_mesh_import test_mesh_objects test_bullet_coupling test_bullet_physics
               test_embedding test_floor test_output test_mtled test_scene_state test_stability
-              test_checkpoint test_cutting test_suturing test_suturing_bullet)
+              test_checkpoint test_cutting test_suturing test_suturing_bullet test_c_api)
 ASAN_INCLUDE="."
 ASAN_EXCLUDE="_NOT_BUILT$"                                         # programs not built here
 ASAN_EXCLUDE+="|SelfWeight|Hertz|ThinCapsules|SeedCylinder"       # their programs are not built
