@@ -4,13 +4,18 @@
 // thread, with a static and a dynamic shape); a refused checkpoint changes nothing.
 #include <gtest/gtest.h>
 
+#include <zlib.h>
+
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "grid/block_grid.h"
 #include "mpm/checkpoint_io.h"
 #include "bullet_test_world.h"
 #include "mpm/scene.h"
@@ -73,6 +78,37 @@ TEST(CheckpointFormat, RefusesWrongMagicVersionAndChecksum) {
     f = sampleFile();
     f[at] ^= 0x10;
     EXPECT_EQ(refusal(f), Reason::Checksum) << "byte " << at;
+  }
+}
+
+// A bool is read as a byte that must be 0 or 1 (fuzz_checkpoint found a file whose CRC
+// held and whose bool byte was 29: copied into a bool, undefined behaviour), also in a
+// fixed array of bools (DomainSettings::mirrorLower).
+TEST(CheckpointFormat, RefusesABoolThatIsNeitherZeroNorOne) {
+  for (const uint8_t byte : {uint8_t(0), uint8_t(1), uint8_t(2), uint8_t(29), uint8_t(255)}) {
+    checkpoint::Writer w;
+    w.put(byte);
+    const uint8_t three[3] = {1, 0, byte};
+    w.put(three);
+    const std::vector<uint8_t> file = w.finish();
+    Reader r(file.data(), file.size());
+    bool flags[3];
+    if (byte <= 1) {
+      EXPECT_EQ(r.get<bool>("a flag"), byte == 1);
+      r.getInto(flags, "three flags");
+      EXPECT_TRUE(flags[0] && !flags[1] && flags[2] == (byte == 1));
+      continue;
+    }
+    try {
+      r.get<bool>("a flag");
+      ADD_FAILURE() << "a bool byte of " << (int)byte << " was taken";
+    } catch (const CheckpointError& e) {
+      EXPECT_EQ(e.reason(), Reason::Malformed);
+      EXPECT_NE(std::string(e.what()).find("a flag holds " + std::to_string(byte)), std::string::npos) << e.what();
+    }
+    Reader again(file.data(), file.size());
+    again.get<uint8_t>("a byte");
+    EXPECT_THROW(again.getInto(flags, "three flags"), CheckpointError);
   }
 }
 
@@ -274,6 +310,60 @@ TEST_P(SceneCheckpoint, RefusedCheckpointsChangeNothing) {
   Scene loads(twoThreads);
   EXPECT_NO_THROW(loads.loadFromMemory(good));
   EXPECT_EQ(loads.time(), 3 * (double)kFrame);
+}
+
+// A particle far outside the grid in a checkpoint whose CRC holds (fuzz_checkpoint: x =
+// 2e31, whose stencil index overflowed an int in the first step) is refused on loading,
+// as is one just outside the grid and one at NaN; the scene is left as it was.
+TEST(SceneCheckpointFields, RefusesParticlesOutsideTheGrid) {
+  TestScene t(SolverType::MlsMpm);
+  run(t, 3);
+  const std::vector<uint8_t> good = t.scene.saveToMemory();
+  std::vector<Vec3f> x;
+  t.scene.readPositions(t.block, x);
+  // the first particle's position, as the payload holds it
+  const auto at = std::search(good.begin() + (long)checkpoint::kHeaderBytes, good.end(), (const uint8_t*)&x[0],
+                              (const uint8_t*)&x[0] + sizeof(Vec3f));
+  ASSERT_NE(at, good.end());
+  const Snapshot before = snapshot(t);
+  for (const float bad : {2e31f, 0.2f + 0.05f, std::nanf("")}) {
+    std::vector<uint8_t> file = good;
+    std::memcpy(&file[(size_t)(at - good.begin())], &bad, sizeof(float));
+    const uint32_t crc = (uint32_t)crc32_z(crc32_z(0L, Z_NULL, 0), file.data() + checkpoint::kHeaderBytes,
+                                           file.size() - checkpoint::kHeaderBytes);
+    std::memcpy(&file[12], &crc, 4);
+    try {
+      t.scene.loadFromMemory(file);
+      ADD_FAILURE() << "a particle at x = " << bad << " was loaded";
+    } catch (const CheckpointError& e) {
+      EXPECT_EQ(e.reason(), Reason::Malformed) << e.what();
+      EXPECT_NE(std::string(e.what()).find("outside the grid"), std::string::npos) << e.what();
+    }
+    expectIdentical(snapshot(t), before, "particle outside the grid");
+  }
+  EXPECT_NO_THROW(t.scene.loadFromMemory(good));
+}
+
+// A particle far outside the grid, or at NaN, is outside without overflowing the stencil's
+// int base (UBSan, in the ASan tree: fuzz_checkpoint's loaded velocity of 1e28 put a
+// particle at 8.7e23 in the first substep and the divergence check itself converted it to
+// int; a NaN state reached P2G's stencil in the next substep).
+TEST(SceneCheckpointFields, StencilInsideRefusesFarPositionsInFloats) {
+  GridGeometry g;
+  g.lower = {-0.1f, -0.1f, -0.1f};
+  g.dx = 0.02f;
+  g.invDx = 50.f;
+  g.cells[0] = g.cells[1] = g.cells[2] = 10;
+  EXPECT_TRUE(g.stencilInside({0.f, 0.f, 0.f}));
+  for (const float far : {8.7e23f, -2e31f, std::numeric_limits<float>::infinity(), std::nanf("")}) {
+    EXPECT_FALSE(g.stencilInside({far, 0.f, 0.f})) << far;
+    EXPECT_FALSE(g.stencilInside({0.f, 0.f, far})) << far;
+    int base[3];
+    Vec3f fx;
+    g.stencilBase({far, far, far}, base, fx);
+    EXPECT_FALSE(g.baseInside(base)) << far;
+  }
+  EXPECT_FALSE(g.stencilInside({0.f, 0.1f, 0.f}));  // on the upper face: the stencil reaches past it
 }
 
 // On the CUDA backend the grid sums with float atomics, in no fixed order: a restored run

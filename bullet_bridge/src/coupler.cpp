@@ -3,6 +3,7 @@
 #include <btBulletDynamicsCommon.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
+#include <LinearMath/btIDebugDraw.h>
 
 #include <algorithm>
 #include <cmath>
@@ -67,11 +68,13 @@ Desc placedAt(Desc d, const ShapeState& now) {
 struct Coupler::SlicerLink {
   BodyFrame frame;
   SlicerId slicer;
+  QuadSlicerDesc blade;  ///< as given: its outline for debugDraw (the scene keeps no copy we can read)
 };
 
 struct Coupler::NeedleLink {
   BodyFrame frame;
   CurveId curve;
+  ArcDesc needle;  ///< as given: its arc for debugDraw
 };
 
 struct Coupler::ThreadLink {
@@ -248,7 +251,7 @@ SlicerId Coupler::addSlicer(btRigidBody* body, const QuadSlicerDesc& blade) {
   if (!body) throw InvalidArgument("Coupler::addSlicer body", "null", "needs a btRigidBody");
   for (const SlicerLink& l : slicers_)
     if (l.frame.body == body) throw InvalidArgument("Coupler::addSlicer body", "already a slicer", "one blade per body");
-  SlicerLink link{BodyFrame(body, blade.pose), {}};
+  SlicerLink link{BodyFrame(body, blade.pose), {}, blade};
   link.slicer = scene_.addSlicer(placedAt(blade, link.frame.state()));  // validates the blade
   slicers_.push_back(link);
   return link.slicer;
@@ -264,7 +267,7 @@ CurveId Coupler::addNeedle(btRigidBody* body, const ArcDesc& needle) {
   if (!body) throw InvalidArgument("Coupler::addNeedle body", "null", "needs a btRigidBody");
   for (const NeedleLink& l : needles_)
     if (l.frame.body == body) throw InvalidArgument("Coupler::addNeedle body", "already a needle", "one needle per body");
-  NeedleLink link{BodyFrame(body, needle.pose), {}};
+  NeedleLink link{BodyFrame(body, needle.pose), {}, needle};
   link.curve = scene_.addCurve(placedAt(needle, link.frame.state()));  // validates the needle
   needles_.push_back(link);
   return link.curve;
@@ -625,6 +628,58 @@ void Coupler::tick(float dt) {
       addLinkForce(t.thread, (int)s - 1, t.force[s], t.torque[s]);
     }
     t.thread->wakeUp();
+  }
+}
+
+namespace {
+btTransform toTransform(const Pose& p) {
+  return btTransform(btQuaternion(p.rotation.x, p.rotation.y, p.rotation.z, p.rotation.w), toBt(p.position));
+}
+}  // namespace
+
+void Coupler::debugDraw(btIDebugDraw* drawer, const DebugDrawOptions& options) const {
+  if (!drawer) drawer = world_->getDebugDrawer();
+  if (!drawer || drawer->getDebugMode() == btIDebugDraw::DBG_NoDebug) return;
+  if (!(options.particleSize >= 0.f) || !std::isfinite(options.particleSize))
+    throw InvalidArgument("DebugDrawOptions.particleSize", std::to_string(options.particleSize), "must be finite and >= 0");
+  if (options.particleStride < 1)
+    throw InvalidArgument("DebugDrawOptions.particleStride", std::to_string(options.particleStride), "must be >= 1");
+  const float half = 0.5f * (options.particleSize > 0.f ? options.particleSize : 0.25f * scene_.settings().dx);
+  const btVector3 tissue = toBt(options.tissueColor), tool = toBt(options.toolColor);
+  // the tissue: a cross through each particle, its lines along the world axes
+  std::vector<Vec3f> x;
+  for (const ParticleObjectId id : scene_.particleObjects()) {
+    scene_.readPositions(id, x);
+    for (size_t i = 0; i < x.size(); i += (size_t)options.particleStride)
+      for (int axis = 0; axis < 3; ++axis) {
+        btVector3 h(0, 0, 0);
+        h[axis] = half;
+        drawer->drawLine(toBt(x[i]) - h, toBt(x[i]) + h, tissue);
+      }
+  }
+  // blades: edge, ends and spine's axis as the scene moved them (the coupler takes quad
+  // blades only, so there is no mesh blade to draw)
+  for (const SlicerLink& l : slicers_) {
+    const btTransform t = toTransform(scene_.slicerState(l.slicer).pose);
+    const btScalar a = l.blade.halfLength, w = l.blade.width;
+    const btVector3 corner[4] = {t * btVector3(-a, 0, 0), t * btVector3(a, 0, 0), t * btVector3(a, w, 0),
+                                 t * btVector3(-a, w, 0)};
+    for (int k = 0; k < 4; ++k) drawer->drawLine(corner[k], corner[(k + 1) % 4], tool);
+  }
+  // needles: the wire's centre line, tail to tip, in the arc's x-y plane
+  for (const NeedleLink& l : needles_) {
+    const btTransform t = toTransform(scene_.curveState(l.curve).pose);
+    const ArcDesc& arc = l.needle;
+    auto at = [&](float angle) { return t * btVector3(arc.radius * std::cos(angle), arc.radius * std::sin(angle), 0); };
+    const int segments = 32;
+    for (int k = 0; k < segments; ++k)
+      drawer->drawLine(at(arc.startAngle + (arc.endAngle - arc.startAngle) * k / segments),
+                       at(arc.startAngle + (arc.endAngle - arc.startAngle) * (k + 1) / segments), tool);
+  }
+  // threads: the chain as it is now (the points the scene takes at the next tick)
+  for (const ThreadLink& t : threads_) {
+    const std::vector<btVector3> p = threadPoints(t.thread);
+    for (size_t k = 1; k < p.size(); ++k) drawer->drawLine(p[k - 1], p[k], toBt(options.threadColor));
   }
 }
 

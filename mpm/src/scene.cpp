@@ -325,7 +325,9 @@ class SceneImpl {
     checkpoint::readSlicers(r, l.slicers);
     checkpoint::readCurves(r, l.curves);
     checkpoint::readBackendState(r, l.backend);
-    checkpoint::checkParticles(l.backend, l.objects, solverTraits(settings.solver).meshless);
+    const bool meshless = solverTraits(settings.solver).meshless;
+    const GridGeometry grid = gridGeometry(settings);
+    checkpoint::checkParticles(l.backend, l.objects, meshless, meshless ? nullptr : &grid);
     r.section("attachment");
     r.getArray(l.attachment, "the attachment");
     r.finish();
@@ -379,6 +381,7 @@ Scene& Scene::operator=(Scene&&) noexcept = default;
 ParticleObjectId Scene::addParticleObject(const ParticleObjectDesc& d) { return impl_->add(d); }
 void Scene::removeParticleObject(ParticleObjectId id) { impl_->remove(id); }
 bool Scene::isValid(ParticleObjectId id) const { return impl_->objects.isValid(id); }
+std::vector<ParticleObjectId> Scene::particleObjects() const { return impl_->objects.liveIds(); }
 void Scene::advance(float dt) { impl_->advance(dt); }
 StepReport Scene::fetchResults() { return impl_->fetch(); }
 ShapeId Scene::addShape(const ShapeDesc& d) { return impl_->addShape(d); }

@@ -45,6 +45,7 @@
 #include "mpm/scene.h"
 
 class btDynamicsWorld;
+class btIDebugDraw;
 class btRigidBody;
 class btCollisionObject;
 class btMultiBody;
@@ -101,6 +102,16 @@ struct CouplingOptions {
   CouplingContact contact;
   /// Sample spacing of signed distance grids built for meshes and hulls [m]; 0 = dx / 2.
   float sdfCellSize = 0.f;
+};
+
+/// What Coupler::debugDraw draws and in which colours (RGB in [0, 1]).
+struct DebugDrawOptions {
+  /// [m] length of each of the three lines of a particle's cross; 0: a quarter of dx.
+  float particleSize = 0.f;
+  int particleStride = 1;  ///< draws every n-th particle of each object (n >= 1)
+  Vec3f tissueColor{1.f, 0.55f, 0.7f};  ///< pink
+  Vec3f toolColor{0.6f, 0.6f, 0.6f};    ///< grey: blades and needles
+  Vec3f threadColor{0.2f, 0.4f, 1.f};   ///< blue
 };
 
 class Coupler {
@@ -203,6 +214,15 @@ class Coupler {
 
   /// Shape of a coupled object, e.g. to read its last impulse.
   ShapeId shapeOf(const btCollisionObject* object) const;
+
+  /// Draws the tissue and the coupled tools as lines through a Bullet debug drawer
+  /// (`drawer`, else the world's getDebugDrawer()), so they show in the viewer that draws
+  /// the world: each particle a cross of three lines along the axes; each blade's outline
+  /// (edge, ends, spine) and each needle's arc (32 lines, tail to tip) in their poses after
+  /// the last advance, as the tissue saw them; each thread's polyline (threadPoints). Draws
+  /// nothing without a drawer or when its getDebugMode() is DBG_NoDebug. Between steps;
+  /// a bad option throws InvalidArgument naming it.
+  void debugDraw(btIDebugDraw* drawer = nullptr, const DebugDrawOptions& options = {}) const;
 
   /// The coupling step for one internal tick (called by the hook; public for tests).
   void tick(float dt);

@@ -63,16 +63,25 @@ class Reader {
 
   template <class T>
   T get(const char* what) {
-    static_assert(std::is_trivially_copyable_v<T>, "get: plain data only");
     T v;
-    take(&v, sizeof(T), what);
+    getInto(v, what);
     return v;
   }
-  /// get() into `out` (also a fixed-size array).
+  /// get() into `out` (also a fixed-size array). A bool is a byte that must be 0 or 1:
+  /// any other byte copied into a bool is undefined behaviour (found by fuzz_checkpoint).
   template <class T>
   void getInto(T& out, const char* what) {
     static_assert(std::is_trivially_copyable_v<T>, "getInto: plain data only");
-    take(&out, sizeof(T), what);
+    if constexpr (std::is_same_v<std::remove_all_extents_t<T>, bool>) {
+      uint8_t bytes[sizeof(T)];
+      take(bytes, sizeof(T), what);
+      for (size_t i = 0; i < sizeof(T); ++i) {
+        if (bytes[i] > 1) malformedBool(bytes[i], what);
+        reinterpret_cast<bool*>(&out)[i] = bytes[i] == 1;
+      }
+    } else {
+      take(&out, sizeof(T), what);
+    }
   }
   template <class T>
   void getArray(std::vector<T>& out, const char* what) {
@@ -101,6 +110,7 @@ class Reader {
     at_ += n;
   }
   [[noreturn]] void truncated(uint64_t need, const char* what) const;
+  [[noreturn]] void malformedBool(unsigned byte, const char* what) const;
   const uint8_t* payload_ = nullptr;
   size_t size_ = 0, at_ = 0;
 };

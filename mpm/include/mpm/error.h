@@ -49,7 +49,8 @@ class CheckpointError : public Error {
     Truncated,   ///< shorter than its header or a section says
     Checksum,    ///< the payload's CRC-32 does not match: corrupted
     OtherScene,  ///< a checkpoint of a scene with different model settings
-    Unsupported  ///< valid, but this scene cannot take it (named in the message)
+    Unsupported, ///< valid, but this scene cannot take it (named in the message)
+    Malformed    ///< the checksum holds, but a value cannot have been written here (a bool of 29)
   };
   CheckpointError(Reason reason, const std::string& what) : Error("checkpoint: " + what), reason_(reason) {}
   Reason reason() const { return reason_; }

@@ -89,6 +89,8 @@ class Scene {
   void removeParticleObject(ParticleObjectId id);
   /// True while `id` names a live object.
   bool isValid(ParticleObjectId id) const;
+  /// Handles of every particle object in the scene, in slot order.
+  std::vector<ParticleObjectId> particleObjects() const;
 
   /// Adds a rigid shape (validated; throws InvalidArgument naming the field).
   ShapeId addShape(const ShapeDesc& desc);

@@ -81,7 +81,10 @@ struct GridGeometry {
       // particle within an ulp of a half-cell then gets one base in binning and another in
       // P2G (its tile index out of range: seen as memory corruption with particles at cell
       // centres). fmaf gives the same base on every path, host and device.
-      const float t = fmaf(x[a] - lower[a], invDx, -0.5f);
+      // Clamped to a few cells around the grid before the int conversion: a diverging
+      // particle (x = 1e24, or NaN: fmaxf takes the number) would not fit an int, which
+      // is undefined behaviour (found by fuzz_checkpoint); its base is outside either way.
+      const float t = fminf(fmaxf(fmaf(x[a] - lower[a], invDx, -0.5f), -4.f), (float)cells[a] + 4.f);
       base[a] = (int)floorf(t);
       fx[a] = (t - (float)base[a]) + 0.5f;
     }

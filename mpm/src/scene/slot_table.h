@@ -92,6 +92,13 @@ class SlotTable {
 
   /// Slots, live or free.
   size_t size() const { return slots_.size(); }
+  /// Handles of the live records, in slot order.
+  std::vector<Id> liveIds() const {
+    std::vector<Id> ids;
+    for (uint32_t slot = 0; slot < (uint32_t)slots_.size(); ++slot)
+      if (slots_[slot].alive) ids.push_back({slot, slots_[slot].generation});
+    return ids;
+  }
   bool alive(size_t slot) const { return slots_[slot].alive; }
   /// The record in `slot`, live or free (a free one is cleared).
   Record& operator[](size_t slot) { return slots_[slot].record; }

@@ -62,6 +62,11 @@ Reader::Reader(const uint8_t* file, size_t size) {
   size_ = (size_t)n;
 }
 
+void Reader::malformedBool(unsigned byte, const char* what) const {
+  throw CheckpointError(Reason::Malformed, std::string(what) + " holds " + std::to_string(byte) +
+                                               " where a bool (0 or 1) was written, ending at offset " + std::to_string(at_));
+}
+
 void Reader::truncated(uint64_t need, const char* what) const {
   // unreachable for a file whose CRC matched, unless it was written by a faulty writer
   throw CheckpointError(Reason::Truncated, std::string("payload ends inside ") + what + " (needs " +

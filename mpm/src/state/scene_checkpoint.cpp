@@ -214,10 +214,20 @@ void readCurves(Reader& r, CurveTable& curves) {
   });
 }
 
-void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless) {
+void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless, const GridGeometry* grid) {
   std::vector<size_t> count(objects.size(), 0);
   const HostParticles& p = s.particles;
   for (size_t i = 0; i < p.size(); ++i) {
+    if (grid) {
+      const Vec3f x = p.x[i];
+      bool inside = true;
+      for (int a = 0; a < 3; ++a)
+        inside = inside && x[a] >= grid->lower[a] && x[a] <= grid->lower[a] + grid->cells[a] * grid->dx;
+      if (!inside || !grid->stencilInside(x))  // (NaN fails the comparisons)
+        throw CheckpointError(Reason::Malformed, "particle " + std::to_string(i) + " lies outside the grid, at (" +
+                                                     std::to_string(x.x) + ", " + std::to_string(x.y) + ", " +
+                                                     std::to_string(x.z) + ")");
+    }
     const uint32_t o = p.object[i];
     if (o >= objects.size() || !objects.alive(o) || p.local[i] >= objects[o].particles)
       throw CheckpointError(Reason::Truncated, "particle " + std::to_string(i) + " names no live object (slot " +

@@ -37,7 +37,10 @@ void readCurves(Reader& r, CurveTable& curves);
 /// Refuses (Truncated: the file is inconsistent) particles that name no live object, or
 /// objects whose particle count differs from their particles', or a meshless backend
 /// state without a reference position per node.
-void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless);
+/// `grid`: a grid solver's grid, whose stencils every particle must lie inside (checked
+/// in floats first: a position far outside would overflow the grid's integer index);
+/// null for a meshless solver.
+void checkParticles(const BackendState& s, const ObjectTable& objects, bool meshless, const GridGeometry* grid);
 
 /// Shape descriptions; mesh grids shared by several parts or shapes are written once.
 class ShapeWriter {
