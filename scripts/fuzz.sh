@@ -11,11 +11,12 @@ seconds="${MPM_FUZZ_SECONDS:-60}"
 targets=(fuzz_checkpoint)
 
 start=$(date +%s)
+mkdir -p build-fuzz
 cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
       -DMPM_BUILD_FUZZERS=ON -DMPM_BUILD_TESTS=OFF -DMPM_BUILD_DEMOS=OFF -DMPM_BUILD_BENCH=OFF \
       -DMPM_WITH_CUDA=OFF -DMPM_WITH_OPENMP=OFF -DMPM_NATIVE_ARCH=OFF \
-      -DMPM_SANITIZE=address,undefined,fuzzer-no-link > build-fuzz.log 2>&1 || { cat build-fuzz.log; exit 1; }
-cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]}" >> build-fuzz.log 2>&1 || { tail -50 build-fuzz.log; exit 1; }
+      -DMPM_SANITIZE=address,undefined,fuzzer-no-link > build-fuzz/build.log 2>&1 || { cat build-fuzz/build.log; exit 1; }
+cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]}" >> build-fuzz/build.log 2>&1 || { tail -50 build-fuzz/build.log; exit 1; }
 echo "fuzz: built in $(( $(date +%s) - start )) s"
 
 status=0
