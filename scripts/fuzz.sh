@@ -1,13 +1,16 @@
 #!/usr/bin/env bash
 # Fuzzes the loaders with libFuzzer (clang, from Debian's clang package): builds the fuzz
-# targets with ASan + UBSan in build-fuzz/ and runs each for MPM_FUZZ_SECONDS (default 60)
-# on a copy of its committed seed corpus (tests/fuzz/corpus/NAME). A crash, a sanitizer
+# targets with ASan + UBSan in build-fuzz/ and runs each for MPM_FUZZ_RUNS inputs (default
+# 300000, about 35 s; at most MPM_FUZZ_SECONDS, default 120) from seed MPM_FUZZ_SEED
+# (default 1), so a CI run is reproducible (set another seed, or MPM_FUZZ_RUNS=-1 and a
+# longer MPM_FUZZ_SECONDS, to explore), on a copy of its committed seed corpus
+# (tests/fuzz/corpus/NAME: small scenes, and each input that once found a bug). A crash, a sanitizer
 # report, a timeout or running out of memory fails the script; the input that did it is
 # left in build-fuzz/ (crash-*, timeout-*, oom-*) to reproduce: build-fuzz/tests/fuzz/NAME FILE.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
-seconds="${MPM_FUZZ_SECONDS:-60}"
+seconds="${MPM_FUZZ_SECONDS:-120}" runs="${MPM_FUZZ_RUNS:-300000}" seed="${MPM_FUZZ_SEED:-1}"
 targets=(fuzz_checkpoint)
 
 start=$(date +%s)
@@ -23,9 +26,9 @@ status=0
 for t in "${targets[@]}"; do
   corpus="build-fuzz/corpus-$t"
   rm -rf "$corpus" && cp -r "tests/fuzz/corpus/${t#fuzz_}" "$corpus"
-  if "build-fuzz/tests/fuzz/$t" "$corpus" -max_total_time="$seconds" -timeout=20 -rss_limit_mb=4096 \
+  if "build-fuzz/tests/fuzz/$t" "$corpus" -runs="$runs" -max_total_time="$seconds" -seed="$seed" -timeout=20 -rss_limit_mb=4096 \
        -artifact_prefix="build-fuzz/$t-" -print_final_stats=1 > "build-fuzz/$t.log" 2>&1; then
-    echo "fuzz: $t clean for ${seconds} s: $(grep -o 'stat::number_of_executed_units: *[0-9]*' "build-fuzz/$t.log" | grep -o '[0-9]*$') executions"
+    echo "fuzz: $t clean (seed $seed): $(grep -o 'stat::number_of_executed_units: *[0-9]*' "build-fuzz/$t.log" | grep -o '[0-9]*$') executions"
   else
     echo "fuzz: $t FAILED (build-fuzz/$t.log):"
     tail -40 "build-fuzz/$t.log"

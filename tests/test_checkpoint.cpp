@@ -344,6 +344,41 @@ TEST(SceneCheckpointFields, RefusesParticlesOutsideTheGrid) {
   EXPECT_NO_THROW(t.scene.loadFromMemory(good));
 }
 
+// A loaded shape must pass addShape's own check (fuzz_checkpoint, in CI: a part whose
+// type read Mesh but which had no grid was dereferenced when the shape was built, a null
+// pointer): the test scene's sphere turned into a Mesh part is refused, naming the field.
+TEST(SceneCheckpointFields, RefusesAShapeNoAddCallWouldTake) {
+  TestScene t(SolverType::MlsMpm);
+  run(t, 2);
+  const std::vector<uint8_t> good = t.scene.saveToMemory();
+  // the sphere's part as written: type, half extents (the default), radius
+  struct {
+    int32_t type = (int32_t)GeometryType::Sphere;
+    Vec3f halfExtents{0.05f, 0.05f, 0.05f};
+    float radius = 0.02f;
+  } sphere;
+  static_assert(sizeof(sphere) == 20, "packed as written");
+  const auto at = std::search(good.begin() + (long)checkpoint::kHeaderBytes, good.end(), (const uint8_t*)&sphere,
+                              (const uint8_t*)&sphere + sizeof(sphere));
+  ASSERT_NE(at, good.end());
+  std::vector<uint8_t> file = good;
+  const int32_t mesh = (int32_t)GeometryType::Mesh;
+  std::memcpy(&file[(size_t)(at - good.begin())], &mesh, sizeof(mesh));
+  const uint32_t crc = (uint32_t)crc32_z(crc32_z(0L, Z_NULL, 0), file.data() + checkpoint::kHeaderBytes,
+                                         file.size() - checkpoint::kHeaderBytes);
+  std::memcpy(&file[12], &crc, 4);
+  const Snapshot before = snapshot(t);
+  try {
+    t.scene.loadFromMemory(file);
+    ADD_FAILURE() << "a Mesh part without a grid was loaded";
+  } catch (const CheckpointError& e) {
+    EXPECT_EQ(e.reason(), Reason::Malformed) << e.what();
+    EXPECT_NE(std::string(e.what()).find("a shape: ShapeDesc.parts[0].sdf"), std::string::npos) << e.what();
+  }
+  expectIdentical(snapshot(t), before, "a shape no add call would take");
+  EXPECT_NO_THROW(t.scene.loadFromMemory(good));
+}
+
 // A particle far outside the grid, or at NaN, is outside without overflowing the stencil's
 // int base (UBSan, in the ASan tree: fuzz_checkpoint's loaded velocity of 1e28 put a
 // particle at 8.7e23 in the first substep and the divergence check itself converted it to

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "mpm/settings_fields.h"
+#include "shapes/shape_builder.h"
 
 namespace mpm::checkpoint {
 
@@ -118,6 +119,20 @@ void writeShapes(Writer& w, const ShapeTable& shapes) {
   });
 }
 
+namespace {
+/// A loaded description must pass the check its add call makes: the file's CRC holds, but a
+/// value no add call accepts must not reach the kernels (a mesh part without its grid,
+/// found by fuzz_checkpoint, was dereferenced when the shape was built).
+template <class Check>
+void checkLoaded(const char* what, Check&& check) {
+  try {
+    check();
+  } catch (const InvalidArgument& e) {
+    throw CheckpointError(Reason::Malformed, std::string(what) + ": " + e.what());
+  }
+}
+}  // namespace
+
 void readShapes(Reader& r, ShapeTable& shapes) {
   r.section("shapes");
   ShapeReader descs;
@@ -126,6 +141,10 @@ void readShapes(Reader& r, ShapeTable& shapes) {
     s.desc = descs.read(in);
     s.state = in.get<ShapeState>("a shape's state");
     s.lastImpulse = in.get<ShapeImpulse>("a shape's impulse");
+    checkLoaded("a shape", [&] {
+      validateShapeDesc(s.desc);
+      validateShapeState(s.state);
+    });
     return s;
   });
 }
@@ -155,6 +174,10 @@ void readSlicers(Reader& r, SlicerTable& slicers) {
     s.desc = in.get<QuadSlicerDesc>("a slicer");
     s.state = in.get<ShapeState>("a slicer's state");
     s.lastImpulse = in.get<ShapeImpulse>("a slicer's impulse");
+    checkLoaded("a slicer", [&] {
+      validateSlicerDesc(s.desc);
+      validateShapeState(s.state);
+    });
     if (in.get<uint8_t>("a slicer's kind") == 0) return s;
     auto grid = std::make_shared<SignedDistanceGrid>();
     grid->lower = in.get<Vec3f>("a curved blade's grid");
@@ -208,6 +231,14 @@ void readCurves(Reader& r, CurveTable& curves) {
     t.linearDensity = in.get<float>("a thread");
     t.gravity = in.get<Vec3f>("a thread");
     in.getArray(c.impulses, "a curve's impulses");
+    checkLoaded("a curve", [&] {
+      if (c.needle) {
+        validateCurveDesc(c.arc);
+        validateShapeState(c.state);
+      } else {
+        validateCurveDesc(t);
+      }
+    });
     if ((!c.needle && t.points.size() < 2) || c.impulses.size() != c.bodyCount())
       throw CheckpointError(CheckpointError::Reason::Truncated, "a curve's points do not match its impulses");
     return c;
