@@ -312,6 +312,18 @@ TEST_P(SceneCheckpoint, RefusedCheckpointsChangeNothing) {
   EXPECT_EQ(loads.time(), 3 * (double)kFrame);
 }
 
+/// `good` with `value` written at byte `offset` and its CRC-32 sealed again, so the
+/// loader's own checks (not the checksum) must refuse the change.
+template <class T>
+std::vector<uint8_t> patched(const std::vector<uint8_t>& good, size_t offset, const T& value) {
+  std::vector<uint8_t> file = good;
+  std::memcpy(&file[offset], &value, sizeof(T));
+  const uint32_t crc = (uint32_t)crc32_z(crc32_z(0L, Z_NULL, 0), file.data() + checkpoint::kHeaderBytes,
+                                         file.size() - checkpoint::kHeaderBytes);
+  std::memcpy(&file[12], &crc, 4);
+  return file;
+}
+
 // A particle far outside the grid in a checkpoint whose CRC holds (fuzz_checkpoint: x =
 // 2e31, whose stencil index overflowed an int in the first step) is refused on loading,
 // as is one just outside the grid and one at NaN; the scene is left as it was.
@@ -327,11 +339,7 @@ TEST(SceneCheckpointFields, RefusesParticlesOutsideTheGrid) {
   ASSERT_NE(at, good.end());
   const Snapshot before = snapshot(t);
   for (const float bad : {2e31f, 0.2f + 0.05f, std::nanf("")}) {
-    std::vector<uint8_t> file = good;
-    std::memcpy(&file[(size_t)(at - good.begin())], &bad, sizeof(float));
-    const uint32_t crc = (uint32_t)crc32_z(crc32_z(0L, Z_NULL, 0), file.data() + checkpoint::kHeaderBytes,
-                                           file.size() - checkpoint::kHeaderBytes);
-    std::memcpy(&file[12], &crc, 4);
+    const std::vector<uint8_t> file = patched(good, (size_t)(at - good.begin()), bad);
     try {
       t.scene.loadFromMemory(file);
       ADD_FAILURE() << "a particle at x = " << bad << " was loaded";
@@ -361,12 +369,7 @@ TEST(SceneCheckpointFields, RefusesAShapeNoAddCallWouldTake) {
   const auto at = std::search(good.begin() + (long)checkpoint::kHeaderBytes, good.end(), (const uint8_t*)&sphere,
                               (const uint8_t*)&sphere + sizeof(sphere));
   ASSERT_NE(at, good.end());
-  std::vector<uint8_t> file = good;
-  const int32_t mesh = (int32_t)GeometryType::Mesh;
-  std::memcpy(&file[(size_t)(at - good.begin())], &mesh, sizeof(mesh));
-  const uint32_t crc = (uint32_t)crc32_z(crc32_z(0L, Z_NULL, 0), file.data() + checkpoint::kHeaderBytes,
-                                         file.size() - checkpoint::kHeaderBytes);
-  std::memcpy(&file[12], &crc, 4);
+  const std::vector<uint8_t> file = patched(good, (size_t)(at - good.begin()), (int32_t)GeometryType::Mesh);
   const Snapshot before = snapshot(t);
   try {
     t.scene.loadFromMemory(file);
