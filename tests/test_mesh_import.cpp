@@ -230,6 +230,54 @@ TEST(MeshImport, FileWithoutTrianglesIsAnError) {
   std::remove(garbage.c_str());
 }
 
+// ---------------------------------------------------------------- from memory
+
+std::string fileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+TEST(MeshImport, FromMemoryGivesWhatTheFileGives) {
+  for (const char* name : {"sphere.obj", "tissue_slab.stl", "bowl_open.ply", "box.gltf", "scalpel.obj"}) {
+    const std::string path = assetPath(name), bytes = fileBytes(path);
+    const std::string hint = std::string(name).substr(std::string(name).rfind('.') + 1);
+    const TriangleMesh fromFile = loadTriangleMesh(path, 2.f);
+    const TriangleMesh fromMemory = loadTriangleMeshFromMemory(bytes.data(), bytes.size(), hint, 2.f);
+    EXPECT_EQ(fromMemory.indices, fromFile.indices) << name;
+    ASSERT_EQ(fromMemory.vertices.size(), fromFile.vertices.size()) << name;
+    for (size_t i = 0; i < fromFile.vertices.size(); ++i)
+      for (int a = 0; a < 3; ++a) ASSERT_EQ(fromMemory.vertices[i][a], fromFile.vertices[i][a]) << name << " vertex " << i;
+  }
+}
+
+TEST(MeshImport, FromMemoryNamesWhatIsWrong) {
+  const std::string obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+  EXPECT_EQ(loadTriangleMeshFromMemory(obj.data(), obj.size(), "obj").triangleCount(), 1u);
+  auto message = [&](const void* data, size_t size, const std::string& hint) -> std::string {
+    try {
+      loadTriangleMeshFromMemory(data, size, hint, 1.f, "the test's bytes");
+    } catch (const mpm::Error& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  EXPECT_NE(message(nullptr, 5, "obj").find("data"), std::string::npos);
+  EXPECT_NE(message(obj.data(), 0, "obj").find("size"), std::string::npos);
+  for (const char* hint : {"", "xyz", ".obj", "../obj", "a/b.obj"})
+    EXPECT_NE(message(obj.data(), obj.size(), hint).find("formatHint = '" + std::string(hint) + "'"), std::string::npos)
+        << hint << ": " << message(obj.data(), obj.size(), hint);
+  const std::string garbage = "this is not a mesh";
+  EXPECT_NE(message(garbage.data(), garbage.size(), "stl").find("the test's bytes (stl)"), std::string::npos)
+      << message(garbage.data(), garbage.size(), "stl");
+  // a .gltf whose buffer is another file: not read from memory (nothing is looked up on disk)
+  const std::string gltf = fileBytes(assetPath("box.gltf"));
+  const size_t uri = gltf.find("data:"), uriEnd = gltf.find('"', uri);
+  ASSERT_NE(uri, std::string::npos);
+  const std::string external = gltf.substr(0, uri) + "box.bin" + gltf.substr(uriEnd);
+  EXPECT_NE(message(external.data(), external.size(), "gltf").find("the test's bytes (gltf)"), std::string::npos)
+      << message(external.data(), external.size(), "gltf");
+}
+
 // ---------------------------------------------------------------- Bullet shapes
 
 void expectAabb(const btCollisionShape& shape, const Bounds& b, float padLow, float padHigh, const char* what) {

@@ -1,6 +1,7 @@
 // Mesh files through assimp, and Bullet shapes that own the triangles they collide with.
 #include "mpm_bullet/mesh_import.h"
 
+#include <assimp/IOSystem.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
@@ -94,6 +95,52 @@ void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& par
     appendNode(scene, *node.mChildren[child], transform, scale, welder, out);
 }
 
+constexpr unsigned kImportSteps =
+    aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
+
+void checkScale(float scale) {
+  if (!std::isfinite(scale) || !(scale > 0.f))
+    throw mpm::InvalidArgument("scale", show(scale), "must be a finite number > 0");
+}
+
+void configure(Assimp::Importer& importer) {
+  // drop everything but positions before joining, so vertices that differ only in normal
+  // or texture coordinate (every corner of an STL box) join too
+  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
+                              aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
+                                  aiComponent_TEXCOORDS | aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
+                                  aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS);
+  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+}
+
+/// The triangles of what assimp read (`scene`, null when it failed), welded and scaled;
+/// `what` names the source in errors.
+mpm::TriangleMesh collectTriangles(const Assimp::Importer& importer, const aiScene* scene, const std::string& what,
+                                   float scale) {
+  if (scene == nullptr || scene->mRootNode == nullptr)
+    throw mpm::Error("loadTriangleMesh: cannot read " + what + ": " + importer.GetErrorString());
+  if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0)
+    throw mpm::Error("loadTriangleMesh: " + what + " was read only in part: " + importer.GetErrorString());
+  mpm::TriangleMesh mesh;
+  VertexWelder welder(mesh);
+  appendNode(*scene, *scene->mRootNode, aiMatrix4x4(), scale, welder, mesh);
+  if (mesh.indices.empty()) throw mpm::Error("loadTriangleMesh: " + what + " holds no triangles");
+  for (const mpm::Vec3f& v : mesh.vertices)
+    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
+      throw mpm::Error("loadTriangleMesh: " + what + " has a vertex that is not a finite number");
+  return mesh;
+}
+
+/// An assimp file system with no files in it: reading from memory, the bytes given are the
+/// whole input, and nothing else on the disk is read on their say.
+class NoFiles : public Assimp::IOSystem {
+ public:
+  bool Exists(const char*) const override { return false; }
+  char getOsSeparator() const override { return '/'; }
+  Assimp::IOStream* Open(const char*, const char*) override { return nullptr; }
+  void Close(Assimp::IOStream*) override {}
+};
+
 // ------------------------------------------------------------------ Bullet shapes
 
 void validateForBullet(const mpm::TriangleMesh& mesh, float margin) {
@@ -167,32 +214,32 @@ class OwningGImpactMeshShape : private OwnedTriangleArrayHolder, public btGImpac
 }  // namespace
 
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
-  if (!std::isfinite(scale) || !(scale > 0.f))
-    throw mpm::InvalidArgument("scale", show(scale), "must be a finite number > 0");
+  checkScale(scale);
   Assimp::Importer importer;
-  // drop everything but positions before joining, so vertices that differ only in normal
-  // or texture coordinate (every corner of an STL box) join too
-  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS,
-                              aiComponent_NORMALS | aiComponent_TANGENTS_AND_BITANGENTS | aiComponent_COLORS |
-                                  aiComponent_TEXCOORDS | aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
-                                  aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS);
-  importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
-  const aiScene* scene = importer.ReadFile(path, aiProcess_RemoveComponent | aiProcess_Triangulate |
-                                                     aiProcess_JoinIdenticalVertices | aiProcess_SortByPType);
-  if (scene == nullptr || scene->mRootNode == nullptr)
-    throw mpm::Error("loadTriangleMesh: cannot read '" + path + "': " + importer.GetErrorString());
-  if ((scene->mFlags & AI_SCENE_FLAGS_INCOMPLETE) != 0)
-    throw mpm::Error("loadTriangleMesh: '" + path + "' was read only in part: " + importer.GetErrorString());
+  configure(importer);
+  const aiScene* scene = importer.ReadFile(path, kImportSteps);
+  return collectTriangles(importer, scene, "'" + path + "'", scale);
+}
 
-  mpm::TriangleMesh mesh;
-  VertexWelder welder(mesh);
-  appendNode(*scene, *scene->mRootNode, aiMatrix4x4(), scale, welder, mesh);
-  if (mesh.indices.empty())
-    throw mpm::Error("loadTriangleMesh: '" + path + "' holds no triangles");
-  for (const mpm::Vec3f& v : mesh.vertices)
-    if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-      throw mpm::Error("loadTriangleMesh: '" + path + "' has a vertex that is not a finite number");
-  return mesh;
+mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, const std::string& formatHint,
+                                             float scale, const std::string& name) {
+  checkScale(scale);
+  if (data == nullptr) throw mpm::InvalidArgument("data", "NULL", "must point to the file's bytes");
+  if (size == 0) throw mpm::InvalidArgument("size", "0", "a mesh file is not empty");
+  Assimp::Importer importer;
+  // assimp picks the reader from the name's extension: a hint that names none, or a path,
+  // would make it guess from the bytes or look elsewhere
+  if (formatHint.empty() || formatHint.size() > 16 ||
+      formatHint.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789") !=
+          std::string::npos ||
+      !importer.IsExtensionSupported("." + formatHint))
+    throw mpm::InvalidArgument("formatHint", "'" + formatHint + "'",
+                               "must be the extension of a mesh format assimp reads (obj, stl, ply, gltf, glb, ...)");
+  configure(importer);
+  // the bytes are the whole file: a reference to another file finds nothing
+  importer.SetIOHandler(new NoFiles);
+  const aiScene* scene = importer.ReadFileFromMemory(data, size, kImportSteps, formatHint.c_str());
+  return collectTriangles(importer, scene, name + " (" + formatHint + ")", scale);
 }
 
 std::unique_ptr<btCollisionShape> makeBvhTriangleMeshShape(const mpm::TriangleMesh& mesh, float margin) {

@@ -2,6 +2,7 @@
 /// Triangle meshes from files (through assimp) and the Bullet collision shapes built from
 /// them. The same mpm::TriangleMesh feeds the MPM side (buildSignedDistanceGrid, filling
 /// tissue) and the Bullet side (the shapes below), so both see one geometry.
+#include <cstddef>
 #include <memory>
 #include <string>
 
@@ -21,6 +22,16 @@ namespace mpm::bullet {
 /// be read or holds no triangles; mpm::InvalidArgument for a scale that is not a finite
 /// number > 0.
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale = 1.f);
+
+/// The same from a file's bytes already in memory (`size` bytes at `data`): `formatHint`
+/// is the extension the file would have ("obj", "stl", "ply", "gltf", "glb", ...; without
+/// the dot), which picks assimp's reader. The bytes are the whole file: references to
+/// other files (a .gltf's side-by-side buffers, an .obj's .mtl) are not followed (a .gltf
+/// with a buffer elsewhere is an error). Errors as loadTriangleMesh, naming `name` (e.g.
+/// where the bytes came from) in place of the path; mpm::InvalidArgument on `data` NULL,
+/// `size` 0 or an empty or unknown `formatHint` (naming it).
+mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, const std::string& formatHint,
+                                             float scale = 1.f, const std::string& name = "memory");
 
 /// Collision margin [m] given to the shapes built below unless the caller says otherwise.
 /// Bullet pads shapes by their margin for robust contact; its own default (0.04 m for convex
