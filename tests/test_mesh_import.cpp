@@ -278,6 +278,28 @@ TEST(MeshImport, FromMemoryNamesWhatIsWrong) {
       << message(external.data(), external.size(), "gltf");
 }
 
+// fuzz_mesh_import found it: a PLY face naming a vertex the file does not have went through
+// assimp's reader into its post-processing, which read past the vertex array (a segmentation
+// fault); now refused with assimp's validation, from a file and from memory alike
+TEST(MeshImport, FaceIndexOutOfRangeIsRefused) {
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 100000000\n";
+  const std::string path = tempPath("face_index_out_of_range.ply");
+  std::ofstream(path) << ply;
+  for (int fromMemory = 0; fromMemory < 2; ++fromMemory) {
+    try {
+      if (fromMemory) loadTriangleMeshFromMemory(ply.data(), ply.size(), "ply");
+      else loadTriangleMesh(path);
+      ADD_FAILURE() << "a face index beyond the vertices was taken";
+    } catch (const mpm::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("out of range"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(fromMemory ? "memory (ply)" : path), std::string::npos) << e.what();
+    }
+  }
+  std::remove(path.c_str());
+}
+
 // ---------------------------------------------------------------- Bullet shapes
 
 void expectAabb(const btCollisionShape& shape, const Bounds& b, float padLow, float padHigh, const char* what) {

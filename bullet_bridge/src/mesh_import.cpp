@@ -95,8 +95,12 @@ void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& par
     appendNode(scene, *node.mChildren[child], transform, scale, welder, out);
 }
 
-constexpr unsigned kImportSteps =
-    aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
+// ValidateDataStructure runs before the other steps: assimp's readers pass on what a file
+// says (a PLY face naming vertex 100000000 of 3), and its post-processing then reads past
+// the vertex array (fuzz_mesh_import found it: a segmentation fault); validated first, such
+// a file is refused with assimp's reason.
+constexpr unsigned kImportSteps = aiProcess_ValidateDataStructure | aiProcess_RemoveComponent | aiProcess_Triangulate |
+                                  aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
 
 void checkScale(float scale) {
   if (!std::isfinite(scale) || !(scale > 0.f))
