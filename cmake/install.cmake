@@ -6,7 +6,7 @@
 # zlib, libpng, assimp, OpenMP, the CUDA runtime) are found again by the package config.
 include(CMakePackageConfigHelpers)
 
-install(TARGETS mpm_validate mpm_geometry mpm mpm_io mpm_bullet
+install(TARGETS mpm_validate mpm_geometry mpm mpm_io mpm_bullet mpm_scene_file
         EXPORT mpm_bulletTargets
         ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
         INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})

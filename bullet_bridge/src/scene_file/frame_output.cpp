@@ -1,0 +1,100 @@
+// A frame's picture (the tissue, needles and threads through the splat renderer) and its
+// CSV row.
+#include <cmath>
+#include <sstream>
+
+#include "scene_file/readers.h"
+
+namespace mpm::bullet {
+
+using namespace scene_file;
+
+namespace {
+
+Vec3f vec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
+
+/// Points along a polyline `spacing` apart, to draw it as splats.
+void addPolyline(const std::vector<btVector3>& p, float spacing, std::vector<Vec3f>& out) {
+  for (size_t k = 0; k + 1 < p.size(); ++k) {
+    const int n = std::max(1, (int)std::ceil((p[k + 1] - p[k]).length() / spacing));
+    for (int i = 0; i < n; ++i) out.push_back(vec(p[k] + (p[k + 1] - p[k]) * ((float)i / n)));
+  }
+  if (!p.empty()) out.push_back(vec(p.back()));
+}
+
+}  // namespace
+
+bool LoadedScene::pngDue() const {
+  const int every = impl_->output.pngEvery;
+  return every > 0 && (frame() % every == 0 || frame() == frameCount());
+}
+
+void LoadedScene::writePng(const std::string& path) const {
+  const Impl& s = *impl_;
+  const Output& o = s.output;
+  io::SplatRenderer renderer(o.camera);
+  if (o.ground) renderer.setGround(o.ground->first, o.ground->second);
+  const float dx = s.scene->settings().dx;
+  const float radius = o.particleRadius > 0.f ? o.particleRadius : 0.3f * dx;
+  std::vector<Vec3f> x, shown;
+  for (const Object& obj : s.objects) {
+    s.scene->readPositions(obj.id, x);
+    shown.clear();
+    for (const Vec3f& p : x)
+      if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
+    renderer.addParticles(shown, radius, obj.color);
+  }
+  const float wire = 0.2f * radius;
+  for (const Needle& n : s.needles) {
+    std::vector<btVector3> arc;
+    const btTransform frame = n.body->body->getCenterOfMassTransform() *
+                              btTransform(btQuaternion(n.arc.pose.rotation.x, n.arc.pose.rotation.y,
+                                                       n.arc.pose.rotation.z, n.arc.pose.rotation.w),
+                                          btVector3(n.arc.pose.position.x, n.arc.pose.position.y, n.arc.pose.position.z));
+    for (int i = 0; i <= 32; ++i) {
+      const float a = n.arc.startAngle + (n.arc.endAngle - n.arc.startAngle) * i / 32;
+      arc.push_back(frame * btVector3(n.arc.radius * std::cos(a), n.arc.radius * std::sin(a), 0));
+    }
+    std::vector<Vec3f> points;
+    addPolyline(arc, wire, points);
+    renderer.addParticles(points, 2.f * wire, {90, 95, 120});
+  }
+  for (const Thread& t : s.threads) {
+    std::vector<Vec3f> points;
+    addPolyline(threadPoints(t.multibody), wire, points);
+    renderer.addParticles(points, wire, {40, 90, 200});
+  }
+  renderer.writePng(path);
+}
+
+std::string LoadedScene::csvHeader() const {
+  std::string h = "time_s";
+  for (const Output::Column& c : impl_->output.columns)
+    for (const char* axis : {"_x", "_y", "_z"}) h += "," + c.name + axis;
+  return h;
+}
+
+std::string LoadedScene::csvRow() const {
+  const Impl& s = *impl_;
+  std::ostringstream row;
+  row.precision(9);
+  row << s.scene->time();
+  const int ticks = std::max(1, (int)std::lround(s.output.frameTime / s.tick));
+  for (const Output::Column& c : s.output.columns) {
+    Vec3f v{0.f, 0.f, 0.f};
+    switch (c.kind) {
+      case Output::Column::Position: v = vec(c.body->body->getCenterOfMassPosition()); break;
+      case Output::Column::Velocity: v = vec(c.body->body->getLinearVelocity()); break;
+      case Output::Column::Force: v = vec(c.body->frameImpulse / (ticks * s.tick)); break;  // the frame's mean
+      case Output::Column::CenterOfMass: {
+        const ObjectSummary m = s.scene->summary(c.object);
+        v = {(float)m.centerOfMass[0], (float)m.centerOfMass[1], (float)m.centerOfMass[2]};
+        break;
+      }
+    }
+    row << "," << v.x << "," << v.y << "," << v.z;
+  }
+  return row.str();
+}
+
+}  // namespace mpm::bullet

@@ -1,0 +1,184 @@
+// LoadedScene: reads a scene file part by part into what it owns, and steps it.
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "scene_file/readers.h"
+
+namespace mpm::bullet {
+
+using namespace scene_file;
+
+namespace {
+
+btVector3 bt(Vec3f v) { return btVector3(v.x, v.y, v.z); }
+
+Json parseJson(const std::string& text, const std::string& what) {
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    throw InvalidArgument(what, "(not JSON)", e.what());
+  }
+}
+
+std::unique_ptr<LoadedScene::Impl> build(const Json& root, const std::string& baseDir) {
+  auto s = std::make_unique<LoadedScene::Impl>();
+  s->baseDir = baseDir;
+  Node n(root, "");
+  std::string description;
+  n.read("description", description);  // for the reader of the file only
+
+  const SceneSettings settings = readSettings(n.get("settings"));
+  {
+    std::optional<Node> world;
+    if (n.has("world")) world.emplace(n.object("world"));
+    readWorld(world ? &*world : nullptr, *s);
+  }
+  try {
+    s->scene = std::make_unique<Scene>(settings);
+  } catch (const InvalidArgument& e) {
+    rethrowAt(e, "SceneSettings", "settings");
+  }
+  readObjects(n.array("objects"), *s);
+  s->coupler = std::make_unique<Coupler>(s->world.get(), *s->scene);
+  readBodies(n.array("bodies"), *s);
+  readSlicers(n.array("slicers"), *s);
+  readNeedles(n.array("needles"), *s);
+  readThreads(n.array("threads"), *s);
+  {
+    std::optional<Node> output;
+    if (n.has("output")) output.emplace(n.object("output"));
+    readOutput(output ? &*output : nullptr, *s);
+  }
+  n.finish();
+  s->hookTicks();
+  return s;
+}
+
+}  // namespace
+
+namespace scene_file {
+
+void readWorld(Node* n, LoadedScene::Impl& s) {
+  s.config = std::make_unique<btDefaultCollisionConfiguration>();
+  s.dispatcher = std::make_unique<btCollisionDispatcher>(s.config.get());
+  s.broadphase = std::make_unique<btDbvtBroadphase>();
+  s.solver = std::make_unique<btMultiBodyConstraintSolver>();
+  // always a multibody world: threads need one, rigid bodies step in it as in a discrete one
+  s.world = std::make_unique<btMultiBodyDynamicsWorld>(s.dispatcher.get(), s.broadphase.get(), s.solver.get(),
+                                                       s.config.get());
+  Vec3f gravity{0.f, -9.81f, 0.f};
+  if (!n) {
+    s.world->setGravity(bt(gravity));
+    return;
+  }
+  n->read("gravity", gravity);
+  s.world->setGravity(bt(gravity));
+  if (n->read("tick", s.tick) && !(s.tick > 0.f && s.tick <= 1.f)) fail(n->at("tick"), s.tick, "must lie in (0, 1] s");
+  int iterations = s.world->getSolverInfo().m_numIterations;
+  if (n->read("solverIterations", iterations) && iterations < 1) fail(n->at("solverIterations"), iterations, "must be >= 1");
+  s.world->getSolverInfo().m_numIterations = iterations;
+  n->finish();
+}
+
+std::string resolveFile(const LoadedScene::Impl& s, const Json& name, const std::string& path) {
+  std::string file;
+  parse(name, path, file);
+  if (!file.empty() && file[0] != '/') file = s.baseDir + "/" + file;
+  if (!std::ifstream(file).good()) fail(path, name, "no such file (" + file + ")");
+  return file;
+}
+
+}  // namespace scene_file
+
+LoadedScene::Impl::~Impl() {
+  coupler.reset();  // unhooks the world first
+  for (Thread& t : threads) destroySutureThread(world.get(), t.multibody);  // with its pins
+  for (auto& b : bodies) {
+    b->driver.reset();
+    world->removeRigidBody(b->body.get());
+  }
+  bodies.clear();
+  scene.reset();
+  world.reset();
+}
+
+Body* LoadedScene::Impl::findBody(const std::string& name) const {
+  for (const auto& b : bodies)
+    if (b->name == name) return b.get();
+  return nullptr;
+}
+
+void LoadedScene::Impl::hookTicks() {
+  coupler->setPreTickCallback([this](float dt) {
+    for (auto& b : bodies) {
+      if (!b->driver) continue;
+      const double t = scene->time() + dt;  // where the body should be after this tick
+      btVector3 v, w;
+      b->script->velocity(t, v, w);
+      b->driver->setTarget(b->script->pose(t), v, w);
+      b->driver->tick(dt);
+    }
+  });
+  coupler->setUserTickCallback([this](float) {
+    auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
+    for (auto& b : bodies)
+      if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
+    for (auto& [body, id] : slicers) add(body, scene->slicerImpulse(id));
+    for (Needle& n : needles) add(n.body, scene->curveImpulse(n.curve));
+  });
+}
+
+LoadedScene::LoadedScene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+LoadedScene::~LoadedScene() = default;
+
+std::unique_ptr<LoadedScene> LoadedScene::fromString(const std::string& json, const std::string& baseDir,
+                                                     const std::string& overrides) {
+  Json root = parseJson(json, "(scene)");
+  if (!overrides.empty()) root.merge_patch(parseJson(overrides, "(overrides)"));
+  return std::unique_ptr<LoadedScene>(new LoadedScene(build(root, baseDir)));
+}
+
+std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::string& overrides) {
+  std::ifstream in(path);
+  if (!in) throw InvalidArgument("(scene file)", path, "cannot be opened");
+  std::stringstream text;
+  text << in.rdbuf();
+  const size_t slash = path.rfind('/');
+  return fromString(text.str(), slash == std::string::npos ? "." : path.substr(0, slash), overrides);
+}
+
+Scene& LoadedScene::scene() { return *impl_->scene; }
+Coupler& LoadedScene::coupler() { return *impl_->coupler; }
+btMultiBodyDynamicsWorld& LoadedScene::world() { return *impl_->world; }
+
+btRigidBody* LoadedScene::body(const std::string& name) const {
+  if (Body* b = impl_->findBody(name)) return b->body.get();
+  throw InvalidArgument("LoadedScene::body", name, "no body of this name");
+}
+ParticleObjectId LoadedScene::object(const std::string& name) const {
+  for (const Object& o : impl_->objects)
+    if (o.name == name) return o.id;
+  throw InvalidArgument("LoadedScene::object", name, "no object of this name");
+}
+btMultiBody* LoadedScene::thread(const std::string& name) const {
+  for (const Thread& t : impl_->threads)
+    if (t.name == name) return t.multibody;
+  throw InvalidArgument("LoadedScene::thread", name, "no thread of this name");
+}
+
+int LoadedScene::frameCount() const { return impl_->output.frames; }
+float LoadedScene::frameTime() const { return impl_->output.frameTime; }
+int LoadedScene::frame() const { return (int)std::lround(impl_->scene->time() / impl_->output.frameTime); }
+
+void LoadedScene::advanceFrame() {
+  for (auto& b : impl_->bodies) b->frameImpulse = btVector3(0, 0, 0);
+  const int ticks = std::max(1, (int)std::lround(impl_->output.frameTime / impl_->tick));
+  impl_->world->stepSimulation(ticks * impl_->tick, ticks + 1, impl_->tick);
+  impl_->coupler->rethrowError();  // an error inside Bullet's tick surfaces here
+}
+
+void LoadedScene::saveCheckpoint(const std::string& path) const { impl_->coupler->save(path); }
+void LoadedScene::loadCheckpoint(const std::string& path) { impl_->coupler->load(path); }
+
+}  // namespace mpm::bullet

@@ -1,0 +1,82 @@
+// "objects": tissue, mpm::ParticleObjectDesc under the same key names; the scene validates
+// them and its errors are renamed to the key path (ParticleObjectDesc.x -> objects[i].x).
+#include "mpm_bullet/mesh_import.h"
+#include "scene_file/readers.h"
+
+namespace mpm::bullet::scene_file {
+
+namespace {
+
+void readMaterial(Node n, Material& m) {
+  n.read("model", m.model);
+  n.read("youngsModulus", m.youngsModulus);
+  n.read("poissonRatio", m.poissonRatio);
+  n.read("density", m.density);
+  n.read("fractureToughness", m.fractureToughness);
+  n.finish();
+}
+
+/// The inside of a mesh file as a signed distance grid of `cellSize` (default dx / 2).
+std::shared_ptr<const SignedDistanceGrid> readMesh(Node n, const LoadedScene::Impl& s) {
+  const std::string file = resolveFile(s, n.require("file"), n.at("file"));
+  float scale = 1.f, cellSize = 0.5f * s.scene->settings().dx;
+  n.read("scale", scale);
+  n.read("cellSize", cellSize);
+  n.finish();
+  if (!(scale > 0.f)) fail(n.at("scale"), scale, "must be > 0");
+  if (!(cellSize > 0.f)) fail(n.at("cellSize"), cellSize, "must be > 0");
+  try {
+    return std::make_shared<const SignedDistanceGrid>(buildSignedDistanceGrid(loadTriangleMesh(file, scale), cellSize));
+  } catch (const Error& e) {  // unreadable, no triangles
+    throw InvalidArgument(n.at("file"), show(n.require("file")), e.what());
+  }
+}
+
+io::Rgb readColor(const Json& j, const std::string& path) {
+  if (!j.is_array() || j.size() != 3) fail(path, j, "must be an array of 3 integers in [0, 255]");
+  int c[3];
+  for (size_t i = 0; i < 3; ++i) {
+    parse(j[i], element(path, i), c[i]);
+    if (c[i] < 0 || c[i] > 255) fail(element(path, i), j[i], "must lie in [0, 255]");
+  }
+  return {(uint8_t)c[0], (uint8_t)c[1], (uint8_t)c[2]};
+}
+
+}  // namespace
+
+void readObjects(const Json& objects, LoadedScene::Impl& s) {
+  for (size_t i = 0; i < objects.size(); ++i) {
+    Node n(objects[i], element("objects", i));
+    Object o;
+    o.name = "object" + std::to_string(i);
+    n.read("name", o.name);
+    for (const Object& other : s.objects)
+      if (other.name == o.name) fail(n.at("name"), o.name, "another object has this name");
+    ParticleObjectDesc d;
+    n.read("primitive", d.primitive);
+    n.read("center", d.center);
+    n.read("halfExtents", d.halfExtents);
+    n.read("radius", d.radius);
+    if (n.has("mesh")) {
+      if (d.primitive != PrimitiveType::Mesh) fail(n.at("mesh"), n.require("mesh"), "needs \"primitive\": \"Mesh\"");
+      d.mesh = readMesh(n.object("mesh"), s);
+    } else if (d.primitive == PrimitiveType::Mesh) {
+      failMissing(n.at("mesh"), "required with \"primitive\": \"Mesh\"");
+    }
+    n.read("particlesPerCellAxis", d.particlesPerCellAxis);
+    n.read("particleSpacing", d.particleSpacing);
+    if (n.has("material")) readMaterial(n.object("material"), d.material);
+    n.read("velocity", d.velocity);
+    n.read("angularVelocity", d.angularVelocity);
+    if (const Json* c = n.get("color")) o.color = readColor(*c, n.at("color"));
+    n.finish();
+    try {
+      o.id = s.scene->addParticleObject(d);
+    } catch (const InvalidArgument& e) {
+      rethrowAt(e, "ParticleObjectDesc", n.path());
+    }
+    s.objects.push_back(o);
+  }
+}
+
+}  // namespace mpm::bullet::scene_file

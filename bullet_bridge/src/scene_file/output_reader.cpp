@@ -1,0 +1,82 @@
+// "output": frames, pictures (camera, ground, cutaway) and the CSV's columns.
+#include "scene_file/readers.h"
+
+namespace mpm::bullet::scene_file {
+
+namespace {
+
+Output::Column readColumn(const Json& j, const std::string& path, const LoadedScene::Impl& s) {
+  // "bodies.NAME.position|velocity|force" or "objects.NAME.centerOfMass"
+  std::string text;
+  parse(j, path, text);
+  const size_t a = text.find('.'), b = text.rfind('.');
+  const std::string group = text.substr(0, a), what = b == std::string::npos ? "" : text.substr(b + 1);
+  const std::string name = a == std::string::npos || b <= a ? "" : text.substr(a + 1, b - a - 1);
+  Output::Column c;
+  c.kind = Output::Column::Position;
+  c.name = text;
+  if (group == "bodies" && (what == "position" || what == "velocity" || what == "force")) {
+    c.kind = what == "position" ? Output::Column::Position
+                                : what == "velocity" ? Output::Column::Velocity : Output::Column::Force;
+    c.body = s.findBody(name);
+    if (!c.body) fail(path, j, "no body named \"" + name + "\"");
+    return c;
+  }
+  if (group == "objects" && what == "centerOfMass") {
+    c.kind = Output::Column::CenterOfMass;
+    for (const Object& o : s.objects)
+      if (o.name == name) {
+        c.object = o.id;
+        return c;
+      }
+    fail(path, j, "no object named \"" + name + "\"");
+  }
+  fail(path, j, "must be bodies.NAME.position, bodies.NAME.velocity, bodies.NAME.force or objects.NAME.centerOfMass");
+}
+
+}  // namespace
+
+void readOutput(Node* n, LoadedScene::Impl& s) {
+  Output& o = s.output;
+  if (!n) return;
+  if (n->read("frames", o.frames) && o.frames < 1) fail(n->at("frames"), o.frames, "must be >= 1");
+  if (n->read("frameTime", o.frameTime) && !(o.frameTime > 0.f)) fail(n->at("frameTime"), o.frameTime, "must be > 0");
+  if (n->read("pngEvery", o.pngEvery) && o.pngEvery < 0) fail(n->at("pngEvery"), o.pngEvery, "must be >= 0 (0: none)");
+  if (n->has("camera")) {
+    Node c = n->object("camera");
+    c.read("eye", o.camera.eye);
+    c.read("target", o.camera.target);
+    c.read("up", o.camera.up);
+    c.read("fovYDegrees", o.camera.fovYDegrees);
+    if (c.read("width", o.camera.width) && (o.camera.width < 1 || o.camera.width > 8192))
+      fail(c.at("width"), o.camera.width, "must lie in [1, 8192]");
+    if (c.read("height", o.camera.height) && (o.camera.height < 1 || o.camera.height > 8192))
+      fail(c.at("height"), o.camera.height, "must lie in [1, 8192]");
+    if (!(o.camera.fovYDegrees > 0.f && o.camera.fovYDegrees < 180.f))
+      fail(c.at("fovYDegrees"), o.camera.fovYDegrees, "must lie in (0, 180)");
+    c.finish();
+  }
+  if (n->has("ground")) {
+    Node g = n->object("ground");
+    std::pair<float, float> ground{0.f, 1.f};
+    g.read("height", ground.first);
+    if (g.read("halfSize", ground.second) && !(ground.second > 0.f)) fail(g.at("halfSize"), ground.second, "must be > 0");
+    g.finish();
+    o.ground = ground;
+  }
+  if (n->read("particleRadius", o.particleRadius) && !(o.particleRadius >= 0.f))
+    fail(n->at("particleRadius"), o.particleRadius, "must be >= 0 (0: 0.3 dx)");
+  if (n->has("cutaway")) {
+    Node c = n->object("cutaway");
+    std::pair<Vec3f, float> cut{{0.f, 0.f, 1.f}, 0.f};
+    c.readRequired("normal", cut.first);
+    c.read("offset", cut.second);
+    c.finish();
+    o.cutaway = cut;
+  }
+  const Json& columns = n->array("csv");
+  for (size_t i = 0; i < columns.size(); ++i) o.columns.push_back(readColumn(columns[i], element(n->at("csv"), i), s));
+  n->finish();
+}
+
+}  // namespace mpm::bullet::scene_file

@@ -1,0 +1,195 @@
+// "slicers", "needles", "threads": blades and needles on named bodies, suture threads with
+// their pins. Key names are the C++ descriptions' (QuadSlicerDesc, ArcDesc,
+// SutureThreadDesc, ThreadCoupling), so the library's errors are renamed to key paths.
+#include <algorithm>
+#include <cmath>
+#include <type_traits>
+
+#include "scene_file/readers.h"
+
+namespace mpm::bullet::scene_file {
+
+namespace {
+
+btVector3 bt(Vec3f v) { return btVector3(v.x, v.y, v.z); }
+
+Body* readBodyName(Node& n, const LoadedScene::Impl& s) {
+  std::string name;
+  n.readRequired("body", name);
+  Body* b = s.findBody(name);
+  if (!b) fail(n.at("body"), name, "no body of this name");
+  return b;
+}
+
+/// SutureThreadDesc::fixedBase where this build has it (threads fixed at one end).
+template <class D>
+auto setFixedBase(D& d, bool v, int) -> decltype(d.fixedBase = v, bool()) {
+  d.fixedBase = v;
+  return true;
+}
+template <class D>
+bool setFixedBase(D&, bool, long) {
+  return false;
+}
+
+/// Turns each joint of `thread` by `bend` (a world-frame rotation), so that it starts with
+/// slack: a flat arc instead of a straight line.
+void bendJoints(btMultiBody* thread, const Quat& bend) {
+  const btQuaternion toBase = thread->getWorldToBaseRot();  // world to the links' frame
+  const btVector3 axis = quatRotate(toBase, btVector3(bend.x, bend.y, bend.z));
+  if (axis.length2() == 0) return;
+  const btQuaternion q(axis.normalized(), 2.f * std::acos(std::clamp(bend.w, -1.f, 1.f)));
+  for (int i = 0; i < thread->getNumLinks(); ++i) {
+    const btScalar joint[4] = {q.x(), q.y(), q.z(), q.w()};
+    thread->setJointPosMultiDof(i, joint);
+  }
+  btAlignedObjectArray<btQuaternion> rot;
+  btAlignedObjectArray<btVector3> pos;
+  thread->forwardKinematics(rot, pos);
+  thread->updateCollisionObjectWorldTransforms(rot, pos);
+}
+
+struct Pin {
+  int point = 0;
+  Body* body = nullptr;  ///< null: the world
+  std::optional<Vec3f> pivot;
+  std::string path;
+};
+
+void readThread(Node n, LoadedScene::Impl& s, size_t index) {
+  Thread t;
+  t.name = "thread" + std::to_string(index);
+  n.read("name", t.name);
+  for (const Thread& other : s.threads)
+    if (other.name == t.name) fail(n.at("name"), t.name, "another thread has this name");
+  SutureThreadDesc d;
+  n.read("length", d.length);
+  n.read("segments", d.segments);
+  n.read("radius", d.radius);
+  n.read("linearDensity", d.linearDensity);
+  n.read("damping", d.damping);
+  Vec3f v;
+  const bool hasStart = n.read("start", v);
+  d.start = bt(v);
+  if (n.read("direction", v)) d.direction = bt(v);
+  bool fixedBase = false;
+  if (n.read("fixedBase", fixedBase) && !setFixedBase(d, fixedBase, 0))
+    fail(n.at("fixedBase"), fixedBase, "this build's SutureThreadDesc has no fixedBase");
+  n.read("friction", d.friction);
+  n.read("collisionGroup", d.collisionGroup);
+  n.read("collisionMask", d.collisionMask);
+  std::optional<Quat> bend;
+  if (n.has("bend")) {
+    Quat q;
+    n.read("bend", q);
+    bend = q;
+  }
+  ThreadCoupling coupling;
+  if (n.has("coupling")) {
+    Node c = n.object("coupling");
+    c.read("radius", coupling.radius);
+    c.read("friction", coupling.friction);
+    c.read("drag", coupling.drag);
+    c.read("dynamic", coupling.dynamic);
+    c.finish();
+  }
+  std::vector<Pin> pins;
+  const Json& pinList = n.array("pins");
+  for (size_t k = 0; k < pinList.size(); ++k) {
+    Node p(pinList[k], element(n.at("pins"), k));
+    Pin pin;
+    pin.path = p.path();
+    p.readRequired("point", pin.point);
+    if (p.has("body")) pin.body = readBodyName(p, s);
+    Vec3f pivot;
+    if (p.read("pivot", pivot)) pin.pivot = pivot;
+    p.finish();
+    pins.push_back(pin);
+  }
+  n.finish();
+  // no start given: the point pinned first to a body, where the pin holds it
+  if (!hasStart) {
+    const Pin* eye = nullptr;
+    for (const Pin& p : pins)
+      if (p.point == 0 && p.body && p.pivot) eye = &p;
+    if (!eye) failMissing(n.at("start"), "required unless a pin holds point 0 to a body at a pivot");
+    d.start = eye->body->body->getCenterOfMassTransform() * bt(*eye->pivot);
+  }
+
+  try {
+    t.multibody = makeSutureThread(s.world.get(), d);
+  } catch (const InvalidArgument& e) {
+    rethrowAt(e, "SutureThreadDesc", n.path());
+  }
+  s.threads.push_back(t);  // owned from here on
+  if (bend) bendJoints(t.multibody, *bend);
+  for (const Pin& p : pins) {
+    // no pivot: the point is held where it is now
+    btVector3 pivot = p.pivot ? bt(*p.pivot) : btVector3(0, 0, 0);
+    if (!p.pivot && p.point >= 0 && p.point <= d.segments) {
+      pivot = threadPoints(t.multibody)[p.point];
+      if (p.body) pivot = p.body->body->getCenterOfMassTransform().inverse() * pivot;
+    }
+    try {
+      pinThreadPoint(s.world.get(), t.multibody, p.point, p.body ? p.body->body.get() : nullptr, pivot);
+    } catch (const InvalidArgument& e) {
+      rethrowAt(e, "pinThreadPoint ", p.path + ".");
+    }
+  }
+  try {
+    s.coupler->addThread(t.multibody, coupling);
+  } catch (const InvalidArgument& e) {
+    rethrowAt(e, "ThreadCoupling", n.at("coupling"));
+  }
+}
+
+}  // namespace
+
+void readSlicers(const Json& slicers, LoadedScene::Impl& s) {
+  for (size_t i = 0; i < slicers.size(); ++i) {
+    Node n(slicers[i], element("slicers", i));
+    Body* body = readBodyName(n, s);
+    QuadSlicerDesc d;
+    n.read("halfLength", d.halfLength);
+    n.read("width", d.width);
+    n.read("spineRadius", d.spineRadius);
+    n.read("halfThickness", d.halfThickness);
+    n.read("friction", d.friction);
+    n.read("pose", d.pose);
+    n.finish();
+    try {
+      s.slicers.push_back({body, s.coupler->addSlicer(body->body.get(), d)});
+    } catch (const InvalidArgument& e) {
+      rethrowAt(e, "QuadSlicerDesc", n.path());
+    }
+  }
+}
+
+void readNeedles(const Json& needles, LoadedScene::Impl& s) {
+  for (size_t i = 0; i < needles.size(); ++i) {
+    Node n(needles[i], element("needles", i));
+    Needle needle;
+    needle.body = readBodyName(n, s);
+    ArcDesc& d = needle.arc;
+    n.read("radius", d.radius);
+    n.read("startAngle", d.startAngle);
+    n.read("endAngle", d.endAngle);
+    n.read("wireRadius", d.wireRadius);
+    n.read("friction", d.friction);
+    n.read("punctureForce", d.punctureForce);
+    n.read("pose", d.pose);
+    n.finish();
+    try {
+      needle.curve = s.coupler->addNeedle(needle.body->body.get(), d);
+    } catch (const InvalidArgument& e) {
+      rethrowAt(e, "ArcDesc", n.path());
+    }
+    s.needles.push_back(needle);
+  }
+}
+
+void readThreads(const Json& threads, LoadedScene::Impl& s) {
+  for (size_t i = 0; i < threads.size(); ++i) readThread(Node(threads[i], element("threads", i)), s, i);
+}
+
+}  // namespace mpm::bullet::scene_file
