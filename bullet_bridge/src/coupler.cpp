@@ -310,9 +310,10 @@ CurveId Coupler::addThread(btMultiBody* thread, const ThreadCoupling& options) {
     double mass = thread->getBaseMass(), length = 0;
     for (int i = 0; i < n - 1; ++i) mass += thread->getLink(i).m_mass;
     for (size_t k = 1; k < d.points.size(); ++k) length += std::sqrt(dot(d.points[k] - d.points[k - 1], d.points[k] - d.points[k - 1]));
-    if (!(mass > 0) || thread->hasFixedBase())
+    // a fixed base (an anchored end) is allowed: Bullet ignores the force on it, the anchor holds it
+    if (!(mass > 0))
       throw InvalidArgument("ThreadCoupling.dynamic", "true",
-                            "the thread needs mass in every link and a floating base; couple it with dynamic = false");
+                            "the thread needs mass in its links; couple it with dynamic = false");
     d.linearDensity = (float)(mass / length);
     d.gravity = toVec(world_->getGravity());
   }

@@ -98,7 +98,7 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
   const btVector3 inertia(std::max(m * r * r / 2, floorMoment), std::max(transverse, floorMoment),
                           std::max(transverse, floorMoment));
   auto* shape = new btCapsuleShapeX(r, L - 2 * r);  // end to end: the capsules' tips touch at the joints
-  auto* mb = new btMultiBody(n - 1, m, inertia, /*fixedBase*/ false, /*canSleep*/ false);
+  auto* mb = new btMultiBody(n - 1, m, inertia, d.fixedBase, /*canSleep*/ false);
   const btVector3 half(L / 2, 0, 0);
   for (int i = 0; i < n - 1; ++i)
     mb->setupSpherical(i, m, inertia, i - 1, btQuaternion::getIdentity(), half, half, /*disableParentCollision*/ true);

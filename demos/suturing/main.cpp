@@ -21,7 +21,12 @@
 // (--tick-rate 12000, 0.083 ms) does not help: at 0.05 g/m the thread leaves its knot at
 // 3.1 s as at 1/960 s. It starts in Bullet: 5 ms after the eye's link (the chain's base)
 // took 0.14 m/s per tick in the needle's track, links 2 cm above the tissue moved at
-// 2 m/s, the chain whipped and the knot's pin opened. Closing a stitch is shown with a prescribed
+// 2 m/s, the chain whipped and the knot's pin opened. Nor does building the chain from the
+// knot as Bullet's fixed base (--fixed-knot: one pin left, at the eye; Bullet's tracker
+// lists pins on long chains as unstable, bullet3#471): at 0.05 g/m the eye's pin opened
+// at 3.05 s (0.6 mm, then 3 mm at 3.15 s, 16-48 mm after 3.3 s) as the eye went in, as
+// with two pins; with 15 links of 5 mm it opened by 0.75 s (36 mm), before the thread
+// reached the tissue. Closing a stitch is shown with a prescribed
 // thread in tests/test_suturing.cpp (TighteningAStitchClosesTheGap).
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>
@@ -136,7 +141,7 @@ int main(int argc, char** argv) {
   std::string out = "out/suturing", solverName = "mls";
   int frames = 160, pngEvery = 8, threads = 0;
   float seconds = 8.f, dx = 0.0025f, punctureForce = 0.03f, threadDensity = 5e-5f;
-  bool twoWay = false;
+  bool twoWay = false, fixedKnot = false;
   int threadSegments = 30;
   float maxForce = 5.f;
   float tickRate = 960.f;  // Bullet's ticks per second: a thread needs 960 (suture.h)
@@ -154,6 +159,9 @@ int main(int argc, char** argv) {
   app.add_option("--thread-density", threadDensity, "the thread's linear density [kg/m] (3-0 suture: 5e-5)")
       ->check(CLI::PositiveNumber);
   app.add_flag("--two-way", twoWay, "the thread's segment impulses go back to its links (see the status above)");
+  app.add_flag("--fixed-knot", fixedKnot,
+               "build the thread from its knot as Bullet's fixed base (one pin left, at the eye) instead of "
+               "pinning both ends");
   app.add_option("--thread-segments", threadSegments, "links of the thread")->check(CLI::PositiveNumber);
   app.add_option("--tick-rate", tickRate, "Bullet's ticks per second")->check(CLI::PositiveNumber);
   app.add_option("--max-force", maxForce, "the needle driver's force limit [N]")->check(CLI::PositiveNumber);
@@ -267,9 +275,46 @@ int main(int argc, char** argv) {
       thread->forwardKinematics(rot, pos);
       thread->updateCollisionObjectWorldTransforms(rot, pos);
     }
-    mpm::bullet::attachThreadToNeedle(&world, thread, &needle, eyeInNeedle);
     const btVector3 knotAt = mpm::bullet::threadPoints(thread).back();
-    btMultiBodyPoint2Point* knot = mpm::bullet::pinThreadPoint(&world, thread, threadSegments, nullptr, knotAt);
+    int eyePoint = 0;  // the thread's point at the needle's eye
+    btMultiBodyPoint2Point* pin = nullptr;  // the pin whose force is the thread's tension
+    if (fixedKnot) {
+      // the same thread built the other way round, from the knot as the chain's fixed
+      // base: segment i of the new chain is segment n - 1 - i of the old turned half a turn
+      // about its z (x reversed), so with F the old frames, G_i = F_(n-1-i) R and each
+      // joint's rotation q becomes R^-1 q^-1 R
+      const int n = threadSegments;
+      const btTransform last = mpm::bullet::threadSegmentTransform(thread, n - 1);
+      btScalar* q0 = thread->getJointPosMultiDof(0);
+      const btQuaternion q(q0[0], q0[1], q0[2], q0[3]);
+      const std::vector<btVector3> p = mpm::bullet::threadPoints(thread);
+      mpm::bullet::destroySutureThread(&world, thread);
+      td.start = p[(size_t)n];
+      td.direction = p[(size_t)n - 1] - p[(size_t)n];
+      td.fixedBase = true;
+      thread = mpm::bullet::makeSutureThread(&world, td);
+      const btQuaternion R(btVector3(0, 0, 1), kPi);
+      thread->setBasePos(last.getOrigin());
+      thread->setWorldToBaseRot((last.getRotation() * R).inverse());
+      const btQuaternion qr = R.inverse() * q.inverse() * R;
+      for (int i = 0; i < thread->getNumLinks(); ++i) {
+        const btScalar v[4] = {qr.x(), qr.y(), qr.z(), qr.w()};
+        thread->setJointPosMultiDof(i, v);
+      }
+      btAlignedObjectArray<btQuaternion> rot;
+      btAlignedObjectArray<btVector3> pos;
+      thread->forwardKinematics(rot, pos);
+      thread->updateCollisionObjectWorldTransforms(rot, pos);
+      eyePoint = n;
+      const std::vector<btVector3> p2 = mpm::bullet::threadPoints(thread);
+      std::printf("thread built from its knot: eye %.2e m, knot %.2e m from the pinned thread's\n",
+                  (p2[(size_t)n] - p[0]).length(), (p2[0] - p[(size_t)n]).length());
+      pin = mpm::bullet::pinThreadPoint(&world, thread, n, &needle, eyeInNeedle);
+    } else {
+      mpm::bullet::attachThreadToNeedle(&world, thread, &needle, eyeInNeedle);
+      pin = mpm::bullet::pinThreadPoint(&world, thread, threadSegments, nullptr, knotAt);
+    }
+    btMultiBodyPoint2Point* knot = pin;
     mpm::bullet::ThreadCoupling tc;
     tc.friction = 0.1f;
     tc.dynamic = twoWay;
@@ -329,7 +374,9 @@ int main(int argc, char** argv) {
       const float gap = gapWidth(a, b, kHeight);
       const btTransform pose = needle.getCenterOfMassTransform();
       const float turn = 2.f * std::atan2(pose.getRotation().z(), pose.getRotation().w()) * 180.f / kPi;
-      const float knotGap = (mpm::bullet::threadPoints(thread).back() - knotAt).length();
+      // the gap of the thread's pinned point: the knot's, or with --fixed-knot the eye's
+      const std::vector<btVector3> tp = mpm::bullet::threadPoints(thread);
+      const float knotGap = fixedKnot ? (tp[(size_t)eyePoint] - pose * eyeInNeedle).length() : (tp.back() - knotAt).length();
       csv << scene.time() << "," << force.length() << "," << gap * 1e3 << "," << tension.length() << ","
           << knotGap * 1e3 << "," << (scene.tipInside(needleCurve) ? 1 : 0) << "," << turn << ","
           << driver.lastForce().length() << "," << wall << std::endl;

@@ -41,6 +41,11 @@ struct SutureThreadDesc {
   float damping = 0.f;
   btVector3 start{0, 0, 0};       ///< [m] the first point (base segment's outer end)
   btVector3 direction{1, 0, 0};   ///< from `start` toward the last point; normalised, non-zero
+  /// The first segment fixed in the world where it is built (a knot or an anchor): Bullet's
+  /// fixed base, so no btMultiBodyPoint2Point holds that end. Bullet's tracker lists such
+  /// pins on long Featherstone chains as a source of instability (bullet3#471, #4242),
+  /// and a chain pinned at both ends closes a loop the articulated solve does not see.
+  bool fixedBase = false;
   float friction = 0.3f;          ///< Bullet friction of the colliders (thread on other Bullet bodies)
   /// Collision filter of the colliders (Bullet's group and mask); mask 0: the thread
   /// touches no other Bullet body (it still touches the tissue through the coupler).
