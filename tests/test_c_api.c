@@ -42,6 +42,257 @@ static double meanY(const mpm_vec3* x, size_t n) {
   return y / (double)n;
 }
 
+/* A closed box mesh of half sizes h about the origin: 8 corners, 12 triangles wound
+ * counter-clockwise seen from outside. */
+static const uint32_t kBoxIndices[36] = {0, 2, 1, 0, 3, 2, 4, 5, 6, 4, 6, 7, 0, 1, 5, 0, 5, 4,
+                                         3, 7, 6, 3, 6, 2, 0, 4, 7, 0, 7, 3, 1, 2, 6, 1, 6, 5};
+static mpm_triangle_mesh boxMesh(mpm_vec3 h, mpm_vec3 corners[8]) {
+  for (int i = 0; i < 8; ++i) {
+    corners[i].x = (i == 1 || i == 2 || i == 5 || i == 6) ? h.x : -h.x;
+    corners[i].y = (i == 2 || i == 3 || i == 6 || i == 7) ? h.y : -h.y;
+    corners[i].z = i >= 4 ? h.z : -h.z;
+  }
+  mpm_triangle_mesh m = {corners, 8, kBoxIndices, 12};
+  return m;
+}
+
+/* Momentum of an object's particles along x (axis 0) or y (1) [kg m/s], each of mass `mass`. */
+static double momentum(const mpm_scene* scene, mpm_object_id id, mpm_vec3* v, size_t n, double mass, int axis) {
+  size_t count = 0;
+  CHECK(mpm_scene_read_velocities(scene, id, v, n, &count) == MPM_OK && count == n, "%s", mpm_last_error());
+  double p = 0;
+  for (size_t i = 0; i < n; ++i) p += mass * (axis == 0 ? v[i].x : v[i].y);
+  return p;
+}
+
+/* Two tissue blocks come to rest, one on a compound shape (a box part and a mesh part side
+ * by side, the block across both), one, itself filled from a closed box mesh, on a one-part
+ * mesh shape built from triangles. Over the last 0.4 s of 1.2 each shape's vertical impulse
+ * J balances the block's weight and momentum change exactly (J + m g T + dp = 0 to 1e-5 of
+ * m g T, measured 2e-7: the grid passes momentum between them and nothing else touches the
+ * block), and once settled the block's weight alone (J = -m g T to 1 %, measured 0.4 %: the
+ * block's leftover oscillation, its dp). Then a thread dragged sideways through the meshed block
+ * is held back (each segment's impulse against its motion) and a mesh blade pushed down
+ * into the other block is pushed up. The new calls' error paths are named on the way. */
+static void restingOnCompoundAndMeshShapes(void) {
+  printf("--- compound and mesh shapes, mesh tissue, a mesh blade, a thread ---\n");
+  mpm_scene_settings s = settings();
+  mpm_scene* scene = NULL;
+  CHECK(mpm_scene_create(&s, &scene) == MPM_OK, "%s", mpm_last_error());
+  if (!scene) return;
+  const double g = 9.81, density = 1000, h = 0.5 * s.dx; /* particles per cell axis 2 */
+  mpm_vec3 floorCorners[8], halfCorners[8], cubeCorners[8];
+  const mpm_vec3 floorHalf = {0.08f, 0.02f, 0.08f}, halfHalf = {0.04f, 0.02f, 0.08f}, cubeHalf = {0.05f, 0.05f, 0.05f};
+  mpm_triangle_mesh floorMesh = boxMesh(floorHalf, floorCorners), halfMesh = boxMesh(halfHalf, halfCorners),
+                    cubeMesh = boxMesh(cubeHalf, cubeCorners);
+
+  /* the compound floor at x = -0.15: a box part and a mesh part, each 8 cm by 16 cm */
+  mpm_shape_desc body;
+  mpm_shape_desc_default(&body);
+  body.state.pose.position = (mpm_vec3){-0.15f, -0.05f, 0.f};
+  mpm_shape_part parts[2];
+  mpm_shape_part_default(&parts[0]);
+  mpm_shape_part_default(&parts[1]);
+  parts[0].geometry = MPM_GEOMETRY_BOX;
+  parts[0].half_extents = halfHalf;
+  parts[0].local_pose.position = (mpm_vec3){-0.04f, 0.f, 0.f};
+  parts[1].geometry = MPM_GEOMETRY_MESH;
+  parts[1].mesh = halfMesh;
+  parts[1].local_pose.position = (mpm_vec3){0.04f, 0.f, 0.f};
+  mpm_shape_id compound, meshFloor;
+  expectError(mpm_scene_add_compound_shape(scene, &body, parts, 0, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "part_count = 0");
+  expectError(mpm_scene_add_compound_shape(scene, &body, NULL, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "parts = NULL");
+  parts[1].geometry = 6;
+  expectError(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "parts[1].geometry = 6");
+  parts[1].geometry = MPM_GEOMETRY_MESH;
+  parts[1].mesh_cell_size = -1.f;
+  expectError(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "parts[1].mesh_cell_size = -1");
+  parts[1].mesh_cell_size = 0.f;
+  uint32_t badIndices[36];
+  memcpy(badIndices, kBoxIndices, sizeof badIndices);
+  badIndices[5] = 8;
+  parts[1].mesh.indices = badIndices;
+  expectError(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "parts[1].mesh.indices[5] = 8");
+  parts[1].mesh.indices = NULL;
+  expectError(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "parts[1].mesh.indices = NULL");
+  parts[1].mesh = halfMesh;
+  CHECK(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound) == MPM_OK, "%s", mpm_last_error());
+
+  /* the mesh floor at x = +0.15, one part through mpm_scene_add_shape */
+  mpm_shape_desc floorDesc;
+  mpm_shape_desc_default(&floorDesc);
+  floorDesc.geometry = MPM_GEOMETRY_MESH;
+  floorDesc.state.pose.position = (mpm_vec3){0.15f, -0.05f, 0.f};
+  floorDesc.mesh = floorMesh;
+  floorDesc.mesh.vertices = NULL;
+  expectError(mpm_scene_add_shape(scene, &floorDesc, &meshFloor), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_shape_desc.mesh.vertices = NULL");
+  floorDesc.mesh = floorMesh;
+  floorDesc.mesh.triangle_count = 0;
+  expectError(mpm_scene_add_shape(scene, &floorDesc, &meshFloor), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_shape_desc.mesh.indices = 0 indices");
+  floorDesc.mesh = floorMesh;
+  CHECK(mpm_scene_add_shape(scene, &floorDesc, &meshFloor) == MPM_OK, "%s", mpm_last_error());
+
+  /* the blocks: 10 cm cubes of 50 kPa tissue, 5 mm above their floors' tops (y = -0.03) */
+  mpm_object_desc block;
+  mpm_object_desc_default(&block);
+  block.material.youngs_modulus = 5e4f;
+  block.material.density = (float)density;
+  block.half_extents = cubeHalf;
+  block.center = (mpm_vec3){-0.15f, 0.02f, 0.f};
+  mpm_object_id onCompound, onMesh;
+  CHECK(mpm_scene_add_object(scene, &block, &onCompound) == MPM_OK, "%s", mpm_last_error());
+  block.center = (mpm_vec3){0.15f, 0.02f, 0.f};
+  block.primitive = 4;
+  expectError(mpm_scene_add_object(scene, &block, &onMesh), MPM_ERROR_INVALID_ARGUMENT, "mpm_object_desc.primitive = 4");
+  block.primitive = MPM_PRIMITIVE_MESH;
+  block.mesh = cubeMesh;
+  block.mesh.triangle_count = 11; /* a hole: no inside */
+  expectError(mpm_scene_add_object(scene, &block, &onMesh), MPM_ERROR_INVALID_ARGUMENT, "ParticleObjectDesc.mesh");
+  block.mesh = cubeMesh;
+  CHECK(mpm_scene_add_object(scene, &block, &onMesh) == MPM_OK, "%s", mpm_last_error());
+  size_t n = 0, nMesh = 0;
+  CHECK(mpm_scene_particle_count(scene, onCompound, &n) == MPM_OK && n == 1000, "particles %zu", n);
+  CHECK(mpm_scene_particle_count(scene, onMesh, &nMesh) == MPM_OK && nMesh == n,
+        "the box mesh holds the box's %zu particles (%zu)", n, nMesh);
+  if (n != 1000 || nMesh != n) {
+    mpm_scene_release(scene);
+    return;
+  }
+  const double m = density * h * h * h, weight = n * m * g; /* per particle [kg]; [N] */
+  mpm_vec3* v = malloc(n * sizeof *v);
+
+  const float frame = 0.02f;
+  const int frames = 60, window = 20;
+  double J[2] = {0, 0}, p0[2] = {0, 0};
+  const mpm_shape_id floors[2] = {compound, meshFloor};
+  const mpm_object_id blocks[2] = {onCompound, onMesh};
+  for (int f = 0; f < frames; ++f) {
+    if (f == frames - window)
+      for (int k = 0; k < 2; ++k) p0[k] = momentum(scene, blocks[k], v, n, m, 1);
+    CHECK(mpm_scene_step(scene, frame, NULL) == MPM_OK, "%s", mpm_last_error());
+    if (f >= frames - window)
+      for (int k = 0; k < 2; ++k) {
+        mpm_impulse j;
+        CHECK(mpm_scene_shape_impulse(scene, floors[k], &j) == MPM_OK, "%s", mpm_last_error());
+        J[k] += j.linear.y;
+      }
+  }
+  const double T = window * frame;
+  for (int k = 0; k < 2; ++k) {
+    const double dp = momentum(scene, blocks[k], v, n, m, 1) - p0[k];
+    printf("%s: J_y %.6f N s over %.2f s, -m g T %.6f N s, block dp %.6f N s: balance %.2e, rest %.4f of the weight\n",
+           k ? "mesh floor, mesh block" : "compound floor", J[k], T, -weight * T, dp, J[k] + weight * T + dp,
+           -J[k] / (weight * T));
+    CHECK(fabs(J[k] + weight * T + dp) < 1e-5 * weight * T, "J + m g T + dp = %.3e (1e-5 of m g T)",
+          J[k] + weight * T + dp);
+    CHECK(fabs(-J[k] / (weight * T) - 1) < 0.01, "resting: -J / (m g T) = %.4f (1%%)", -J[k] / (weight * T));
+  }
+
+  /* a thread of three points along z through the meshed block, dragged along +x */
+  mpm_line_segments_desc thread;
+  mpm_line_segments_desc_default(&thread);
+  mpm_vec3 pts[3] = {{0.13f, 0.02f, -0.03f}, {0.13f, 0.02f, 0.f}, {0.13f, 0.02f, 0.03f}};
+  mpm_vec3 vel[3] = {{0.2f, 0.f, 0.f}, {0.2f, 0.f, 0.f}, {0.2f, 0.f, 0.f}};
+  mpm_curve_id threadId;
+  thread.points = pts;
+  thread.point_count = 1;
+  expectError(mpm_scene_add_line_segments(scene, &thread, &threadId), MPM_ERROR_INVALID_ARGUMENT,
+              "LineSegmentsDesc.points = 1 points");
+  thread.points = NULL;
+  thread.point_count = 3;
+  expectError(mpm_scene_add_line_segments(scene, &thread, &threadId), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_line_segments_desc.points = NULL");
+  thread.points = pts;
+  thread.velocities = vel;
+  CHECK(mpm_scene_add_line_segments(scene, &thread, &threadId) == MPM_OK, "%s", mpm_last_error());
+  expectError(mpm_scene_set_curve_points(scene, threadId, pts, NULL, 2), MPM_ERROR_INVALID_ARGUMENT,
+              "points");
+  mpm_impulse segments[2], total;
+  size_t count = 0;
+  const float dt = 0.01f;
+  const double px0 = momentum(scene, onMesh, v, n, m, 0);
+  double taken = 0, floorX = 0; /* the thread's and the floor's x impulses over the drag */
+  for (int f = 0; f < 5; ++f) {
+    CHECK(mpm_scene_step(scene, dt, NULL) == MPM_OK, "%s", mpm_last_error());
+    for (int i = 0; i < 3; ++i) pts[i].x += vel[i].x * dt;
+    CHECK(mpm_scene_set_curve_points(scene, threadId, pts, vel, 3) == MPM_OK, "%s", mpm_last_error());
+    if (f == 0)
+      expectError(mpm_scene_segment_impulses(scene, threadId, segments, 1, &count), MPM_ERROR_BUFFER_TOO_SMALL,
+                  "capacity = 1");
+    CHECK(mpm_scene_segment_impulses(scene, threadId, segments, 2, &count) == MPM_OK && count == 2, "%s (%zu)",
+          mpm_last_error(), count);
+    CHECK(mpm_scene_curve_impulse(scene, threadId, &total) == MPM_OK, "%s", mpm_last_error());
+    printf("thread dragged along +x at 0.2 m/s, %.2f s: segment impulses x %.3e, %.3e N s (the curve's %.3e)\n",
+           (f + 1) * dt, segments[0].linear.x, segments[1].linear.x, total.linear.x);
+    if (f == 0) /* later the block, dragged along on its frictionless floor, catches up */
+      CHECK(segments[0].linear.x < 0.f && segments[1].linear.x < 0.f, "the tissue holds each segment back");
+    CHECK(fabs(segments[0].linear.x + segments[1].linear.x - total.linear.x) <= 1e-6 * fabs(total.linear.x),
+          "the segments' impulses sum to the curve's");
+    taken += total.linear.x;
+    mpm_impulse j;
+    CHECK(mpm_scene_shape_impulse(scene, meshFloor, &j) == MPM_OK, "%s", mpm_last_error());
+    floorX += j.linear.x;
+  }
+  /* the thread pushes the block along x, and the frictionless floor a little where the
+   * block tilts (no wall is near): their impulses are the block's momentum gain */
+  const double px = momentum(scene, onMesh, v, n, m, 0) - px0;
+  printf("the block's x momentum gained %.6f N s, the thread's impulse %.6f N s, the floor's %.2e: balance %.2e\n",
+         px, taken, floorX, px + taken + floorX);
+  CHECK(px > 0 && fabs(px + taken + floorX) < 1e-4 * px, "the thread's and floor's impulses are the block's momentum "
+        "gain (1e-4 of it)");
+  CHECK(mpm_scene_remove_curve(scene, threadId) == MPM_OK, "%s", mpm_last_error());
+  expectError(mpm_scene_set_curve_points(scene, threadId, pts, vel, 3), MPM_ERROR_INVALID_ARGUMENT, "CurveId");
+
+  /* a mesh blade (a 6 cm by 2 cm quad as two triangles, edge along x at y = 0, a spine of
+   * 3 mm along its back at y = 2 cm) pushed down into the block on the compound floor: its
+   * edge cuts at no cost (no toughness: the faces move along themselves), its blunt spine
+   * is pushed back up */
+  mpm_vec3 bladeCorners[4] = {{-0.03f, 0.f, 0.f}, {0.03f, 0.f, 0.f}, {0.03f, 0.02f, 0.f}, {-0.03f, 0.02f, 0.f}};
+  uint32_t bladeIndices[6] = {0, 1, 2, 0, 2, 3};
+  mpm_mesh_slicer_desc blade;
+  mpm_mesh_slicer_desc_default(&blade);
+  blade.blade = (mpm_triangle_mesh){bladeCorners, 4, bladeIndices, 2};
+  blade.spine_from = (mpm_vec3){-0.03f, 0.02f, 0.f};
+  blade.spine_to = (mpm_vec3){0.03f, 0.02f, 0.f};
+  blade.spine_radius = 0.003f;
+  blade.state.pose.position = (mpm_vec3){-0.15f, 0.055f, 0.f}; /* the spine 5 mm above the block */
+  blade.state.linear_velocity = (mpm_vec3){0.f, -0.5f, 0.f};
+  mpm_slicer_id bladeId;
+  bladeIndices[3] = 2, bladeIndices[4] = 0; /* the second triangle wound the other way */
+  expectError(mpm_scene_add_mesh_slicer(scene, &blade, &bladeId), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_mesh_slicer_desc.blade");
+  bladeIndices[3] = 0, bladeIndices[4] = 2;
+  blade.blade.vertices = NULL;
+  expectError(mpm_scene_add_mesh_slicer(scene, &blade, &bladeId), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_mesh_slicer_desc.blade.vertices = NULL");
+  blade.blade.vertices = bladeCorners;
+  CHECK(mpm_scene_add_mesh_slicer(scene, &blade, &bladeId) == MPM_OK, "%s", mpm_last_error());
+  mpm_impulse bladeJ;
+  double pushed = 0;
+  for (int f = 0; f < 4; ++f) { /* down 2 cm: the spine 1.5 cm into the block */
+    CHECK(mpm_scene_step(scene, 0.01f, NULL) == MPM_OK, "%s", mpm_last_error());
+    blade.state.pose.position.y -= 0.005f;
+    CHECK(mpm_scene_set_slicer_state(scene, bladeId, &blade.state) == MPM_OK, "%s", mpm_last_error());
+    CHECK(mpm_scene_slicer_impulse(scene, bladeId, &bladeJ) == MPM_OK, "%s", mpm_last_error());
+    pushed += bladeJ.linear.y;
+  }
+  printf("mesh blade pushed down at 0.5 m/s, its spine 1.5 cm into the block: impulse y %.3e N s\n", pushed);
+  CHECK(pushed > 0, "the tissue pushes the blade back up (%.3e)", pushed);
+  CHECK(mpm_scene_remove_slicer(scene, bladeId) == MPM_OK, "%s", mpm_last_error());
+  CHECK(mpm_scene_remove_shape(scene, compound) == MPM_OK, "%s", mpm_last_error());
+  CHECK(mpm_scene_step(scene, 0.01f, NULL) == MPM_OK, "%s", mpm_last_error());
+  mpm_scene_release(scene);
+  free(v);
+}
+
 int main(void) {
   /* --- errors before a scene exists: each names its field and value --- */
   mpm_scene* scene = NULL;
@@ -184,6 +435,8 @@ int main(void) {
   free(v);
   free(F);
   free(first);
+
+  restingOnCompoundAndMeshShapes();
   printf(failures ? "test_c_api: %d FAILED\n" : "test_c_api: all passed\n", failures);
   return failures ? 1 : 0;
 }

@@ -44,10 +44,12 @@ const char* mpm_last_error(void);
 typedef enum mpm_solver { MPM_SOLVER_MLS = 0, MPM_SOLVER_STANDARD = 1, MPM_SOLVER_PB = 2, MPM_SOLVER_MTLED = 3 } mpm_solver;
 typedef enum mpm_backend { MPM_BACKEND_AUTO = 0, MPM_BACKEND_CPU = 1, MPM_BACKEND_CUDA = 2 } mpm_backend;
 typedef enum mpm_material_model { MPM_FIXED_COROTATED = 0, MPM_NEO_HOOKEAN_DECOUPLED = 1 } mpm_material_model;
-typedef enum mpm_primitive { MPM_PRIMITIVE_BOX = 0, MPM_PRIMITIVE_SPHERE = 1, MPM_PRIMITIVE_CYLINDER = 2 } mpm_primitive;
+typedef enum mpm_primitive {
+  MPM_PRIMITIVE_BOX = 0, MPM_PRIMITIVE_SPHERE = 1, MPM_PRIMITIVE_CYLINDER = 2, MPM_PRIMITIVE_MESH = 3
+} mpm_primitive;
 typedef enum mpm_geometry {
   MPM_GEOMETRY_PLANE = 0, MPM_GEOMETRY_BOX = 1, MPM_GEOMETRY_SPHERE = 2, MPM_GEOMETRY_CAPSULE = 3,
-  MPM_GEOMETRY_CYLINDER = 4
+  MPM_GEOMETRY_CYLINDER = 4, MPM_GEOMETRY_MESH = 5
 } mpm_geometry;
 typedef enum mpm_contact_mode { MPM_CONTACT_FRICTIONAL = 0, MPM_CONTACT_STICKY = 1, MPM_CONTACT_BONDED = 2 } mpm_contact_mode;
 
@@ -59,6 +61,17 @@ typedef struct mpm_pose { mpm_vec3 position; mpm_quat rotation; } mpm_pose;
 typedef struct mpm_body_state { mpm_pose pose; mpm_vec3 linear_velocity, angular_velocity; } mpm_body_state;
 /* Momentum the grid gave a body over the last advance [kg m/s], [kg m^2/s]. */
 typedef struct mpm_impulse { mpm_vec3 linear, angular; } mpm_impulse;
+
+/* A triangle mesh the caller owns (copied by the call it is passed to): vertex_count
+ * vertices [m] and triangle_count triangles, three indices each into the vertices, wound
+ * counter-clockwise seen from outside. The library samples its signed distance on a grid
+ * of `mesh_cell_size` (next to each mesh field; 0: half the scene's dx). */
+typedef struct mpm_triangle_mesh {
+  const mpm_vec3* vertices;
+  size_t vertex_count;
+  const uint32_t* indices;  /* 3 * triangle_count */
+  size_t triangle_count;
+} mpm_triangle_mesh;
 
 typedef struct mpm_object_id { uint32_t index, generation; } mpm_object_id;
 typedef struct mpm_shape_id { uint32_t index, generation; } mpm_shape_id;
@@ -107,6 +120,8 @@ typedef struct mpm_object_desc {
   int particles_per_cell_axis;
   mpm_material material;
   mpm_vec3 velocity, angular_velocity;
+  mpm_triangle_mesh mesh;    /* MPM_PRIMITIVE_MESH: a closed mesh, placed with its origin at `center` */
+  float mesh_cell_size;      /* MPM_PRIMITIVE_MESH: [m]; 0: dx / 2 */
 } mpm_object_desc;
 void mpm_object_desc_default(mpm_object_desc* desc);
 mpm_status mpm_scene_add_object(mpm_scene* scene, const mpm_object_desc* desc, mpm_object_id* id);
@@ -118,7 +133,7 @@ mpm_status mpm_scene_read_positions(const mpm_scene* scene, mpm_object_id id, mp
 mpm_status mpm_scene_read_velocities(const mpm_scene* scene, mpm_object_id id, mpm_vec3* out, size_t capacity, size_t* count);
 mpm_status mpm_scene_read_deformation_gradients(const mpm_scene* scene, mpm_object_id id, float* out, size_t capacity, size_t* count);
 
-/* --- rigid shapes (one primitive each) --- */
+/* --- rigid shapes (one primitive or mesh; several: mpm_scene_add_compound_shape) --- */
 typedef struct mpm_shape_desc {
   int geometry;              /* mpm_geometry: a plane is the half-space below the local x-z plane */
   mpm_vec3 half_extents;     /* box */
@@ -130,9 +145,28 @@ typedef struct mpm_shape_desc {
   float mass;                /* [kg]; 0: kinematic (moves as set) */
   mpm_vec3 inertia;          /* principal moments [kg m^2] (dynamic) */
   mpm_vec3 gravity;          /* felt by a dynamic shape between substeps */
+  mpm_triangle_mesh mesh;    /* MPM_GEOMETRY_MESH: triangles in the shape's frame (closed: a solid) */
+  float mesh_cell_size;      /* MPM_GEOMETRY_MESH: [m]; 0: dx / 2 */
 } mpm_shape_desc;
 void mpm_shape_desc_default(mpm_shape_desc* desc);
 mpm_status mpm_scene_add_shape(mpm_scene* scene, const mpm_shape_desc* desc, mpm_shape_id* id);
+/* One part of a compound shape: a primitive or a mesh (fields as in mpm_shape_desc) placed
+ * at `local_pose` in the shape's frame (the frame of its state, its centre of mass). */
+typedef struct mpm_shape_part {
+  int geometry;              /* mpm_geometry */
+  mpm_vec3 half_extents;
+  float radius, half_height;
+  int axis;
+  mpm_triangle_mesh mesh;
+  float mesh_cell_size;
+  mpm_pose local_pose;
+} mpm_shape_part;
+void mpm_shape_part_default(mpm_shape_part* part);
+/* A shape of `part_count` (>= 1) parts: one rigid body, its state, contact, mass, inertia
+ * and gravity from `desc` (whose own geometry and mesh fields are not used). Its impulse is
+ * the whole body's. */
+mpm_status mpm_scene_add_compound_shape(mpm_scene* scene, const mpm_shape_desc* desc, const mpm_shape_part* parts,
+                                        size_t part_count, mpm_shape_id* id);
 mpm_status mpm_scene_remove_shape(mpm_scene* scene, mpm_shape_id id);
 /* The pose and velocities the shape has and moves with over the next advance (a
  * kinematic shape's target; a dynamic one's state before it). */
@@ -147,6 +181,19 @@ typedef struct mpm_quad_slicer_desc {
 } mpm_quad_slicer_desc;
 void mpm_quad_slicer_desc_default(mpm_quad_slicer_desc* desc);
 mpm_status mpm_scene_add_quad_slicer(mpm_scene* scene, const mpm_quad_slicer_desc* desc, mpm_slicer_id* id);
+/* A curved blade: an open mesh in the slicer's frame, its triangles consistently oriented;
+ * material beside it is cut (its boundary cuts too), only the spine (a round bar from
+ * spine_from to spine_to, slicer frame) is blunt. */
+typedef struct mpm_mesh_slicer_desc {
+  mpm_triangle_mesh blade;
+  mpm_vec3 spine_from, spine_to;
+  float spine_radius;        /* [m]; 0: no spine */
+  float half_thickness, friction;
+  float sample_spacing;      /* of the blade's sampled distance [m]; 0: dx / 4 */
+  mpm_body_state state;
+} mpm_mesh_slicer_desc;
+void mpm_mesh_slicer_desc_default(mpm_mesh_slicer_desc* desc);
+mpm_status mpm_scene_add_mesh_slicer(mpm_scene* scene, const mpm_mesh_slicer_desc* desc, mpm_slicer_id* id);
 mpm_status mpm_scene_remove_slicer(mpm_scene* scene, mpm_slicer_id id);
 mpm_status mpm_scene_set_slicer_state(mpm_scene* scene, mpm_slicer_id id, const mpm_body_state* state);
 mpm_status mpm_scene_slicer_impulse(const mpm_scene* scene, mpm_slicer_id id, mpm_impulse* impulse);
@@ -162,6 +209,28 @@ mpm_status mpm_scene_remove_curve(mpm_scene* scene, mpm_curve_id id);
 mpm_status mpm_scene_set_curve_state(mpm_scene* scene, mpm_curve_id id, const mpm_body_state* state);
 mpm_status mpm_scene_curve_impulse(const mpm_scene* scene, mpm_curve_id id, mpm_impulse* impulse);
 mpm_status mpm_scene_tip_inside(const mpm_scene* scene, mpm_curve_id id, int* inside);
+
+/* --- curves: a thread, the polyline through point_count (>= 2) points [m] --- */
+typedef struct mpm_line_segments_desc {
+  const mpm_vec3* points;     /* point_count, copied */
+  const mpm_vec3* velocities; /* point_count [m/s], or NULL: at rest */
+  size_t point_count;
+  float radius;               /* [m] */
+  float friction, drag;       /* mu_k >= 0 and c_d in [0, 1] of the slip along the thread */
+  float linear_density;       /* [kg/m]; 0: kinematic segments (they move as set) */
+  mpm_vec3 gravity;           /* felt by dynamic segments within a step */
+} mpm_line_segments_desc;
+void mpm_line_segments_desc_default(mpm_line_segments_desc* desc);
+mpm_status mpm_scene_add_line_segments(mpm_scene* scene, const mpm_line_segments_desc* desc, mpm_curve_id* id);
+/* The thread's points (as many as it has) and their velocities (NULL: at rest) for the next
+ * advance, e.g. from the links of the simulator's rope. */
+mpm_status mpm_scene_set_curve_points(mpm_scene* scene, mpm_curve_id id, const mpm_vec3* points,
+                                      const mpm_vec3* velocities, size_t point_count);
+/* The impulse on each segment over the last advance, about its midpoint (point_count - 1
+ * of them; a needle: one); mpm_scene_curve_impulse gives their sum about the first point.
+ * Capacity in segments. */
+mpm_status mpm_scene_segment_impulses(const mpm_scene* scene, mpm_curve_id id, mpm_impulse* out, size_t capacity,
+                                      size_t* count);
 
 /* --- checkpoints (the whole scene; bit for bit on the CPU backend) --- */
 mpm_status mpm_scene_save(const mpm_scene* scene, const char* path);
