@@ -1,0 +1,292 @@
+// Scene files (mpm_bullet/scene_file.h): every scene in assets/scenes/ loads and runs, every
+// malformed case names its key path, and a file maps its keys onto the same physics as the
+// equivalent C++ setup.
+#include <gtest/gtest.h>
+
+#include <btBulletDynamicsCommon.h>
+#include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "mpm_bullet/coupler.h"
+#include "mpm_bullet/scene_file.h"
+#include "test_paths.h"
+
+namespace {
+
+using mpm::bullet::LoadedScene;
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// The message of the InvalidArgument that loading `json` throws ("" if none).
+std::string loadError(const std::string& json) {
+  try {
+    LoadedScene::fromString(json, mpm::test::assetPath("scenes"));
+  } catch (const mpm::InvalidArgument& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// --- every scene file, coarse: loads and runs two frames -------------------------------
+
+struct SceneCase {
+  const char* file;
+  const char* coarse;  // merge patch: a coarser grid and shorter frames, so each runs in seconds
+};
+
+class SceneFiles : public ::testing::TestWithParam<SceneCase> {};
+
+TEST_P(SceneFiles, LoadsAndRunsTwoFrames) {
+  const SceneCase c = GetParam();
+  auto loaded = LoadedScene::fromFile(mpm::test::assetPath(std::string("scenes/") + c.file), c.coarse);
+  ASSERT_GT(loaded->scene().particleCount(), 0u);
+  const std::string header = loaded->csvHeader();
+  for (int f = 0; f < 2; ++f) loaded->advanceFrame();
+  EXPECT_EQ(loaded->frame(), 2);
+  EXPECT_NEAR(loaded->scene().time(), 2 * loaded->frameTime(), 1e-4 * loaded->frameTime());
+  // the CSV row has a value for every header column
+  const std::string row = loaded->csvRow();
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), std::count(header.begin(), header.end(), ','));
+  const std::string png = testing::TempDir() + "/scene_file_" + c.file + ".png";
+  loaded->writePng(png);
+  EXPECT_TRUE(std::filesystem::exists(png));
+}
+
+// the patches keep each scene's layout and only coarsen it (dx, frame length, picture size)
+INSTANTIATE_TEST_SUITE_P(
+    AssetsScenes, SceneFiles,
+    ::testing::Values(SceneCase{"coupling.json", R"({"settings": {"dx": 0.02, "cpuThreads": 1},
+                                                    "output": {"camera": {"width": 160, "height": 100}}})"},
+                      SceneCase{"cutting.json", R"({"settings": {"dx": 0.01, "cpuThreads": 1},
+                                                   "output": {"camera": {"width": 160, "height": 100}}})"},
+                      SceneCase{"suturing.json", R"({"settings": {"dx": 0.005, "cpuThreads": 1},
+                                                    "output": {"frameTime": 0.0104166667,
+                                                               "camera": {"width": 160, "height": 100}}})"}),
+    [](const auto& info) { return std::string(info.param.file).substr(0, std::string(info.param.file).find('.')); });
+
+TEST(SceneFile, EveryFileInAssetsScenesIsTested) {
+  // a scene added to assets/scenes/ needs its row above
+  std::vector<std::string> files;
+  for (const auto& e : std::filesystem::directory_iterator(mpm::test::assetPath("scenes")))
+    if (e.path().extension() == ".json" && e.path().filename() != "scene.schema.json")
+      files.push_back(e.path().filename().string());
+  std::sort(files.begin(), files.end());
+  EXPECT_EQ(files, (std::vector<std::string>{"coupling.json", "cutting.json", "suturing.json"}));
+}
+
+// --- malformed files: each names its key path ------------------------------------------
+
+TEST(SceneFileErrors, EveryBadCaseNamesItsKeyPath) {
+  // tests/scene_files/bad/NAME.json and the message it must give, NAME.expected (the schema
+  // test, tests/scene_files/check_scene_files.py, checks the schema refuses them as well)
+  int cases = 0;
+  for (const auto& e : std::filesystem::directory_iterator(mpm::test::sourcePath("tests/scene_files/bad"))) {
+    if (e.path().extension() != ".json") continue;
+    ++cases;
+    std::string expected = readText(std::filesystem::path(e.path()).replace_extension(".expected").string());
+    while (!expected.empty() && (expected.back() == '\n' || expected.back() == '\r')) expected.pop_back();
+    ASSERT_FALSE(expected.empty()) << e.path();
+    try {
+      LoadedScene::fromFile(e.path().string());
+      ADD_FAILURE() << e.path() << " loaded";
+    } catch (const mpm::InvalidArgument& error) {
+      EXPECT_NE(std::string(error.what()).find(expected), std::string::npos)
+          << e.path() << ": got \"" << error.what() << "\", expected \"" << expected << "\"";
+    }
+  }
+  EXPECT_GE(cases, 10);
+}
+
+constexpr char kDomain[] = R"("settings": {"domain": {"lower": [-0.2, -0.1, -0.2], "upper": [0.2, 0.3, 0.2]}, "dx": 0.04})";
+
+TEST(SceneFileErrors, OutOfRangeMaterialIsTheLibrarysMessageAtTheKeyPath) {
+  const std::string json = std::string("{") + kDomain + R"(, "objects": [
+      {"center": [0, 0.06, 0], "halfExtents": [0.05, 0.05, 0.05]},
+      {"center": [0, 0.18, 0], "halfExtents": [0.04, 0.04, 0.04], "material": {"poissonRatio": 0.7}}]})";
+  EXPECT_EQ(loadError(json), "objects[1].material.poissonRatio = 0.7: must lie in (-1, 0.5)");
+}
+
+TEST(SceneFileErrors, MissingMeshFileNamesTheKey) {
+  const std::string json = std::string("{") + kDomain +
+                           R"(, "objects": [{"primitive": "Mesh", "center": [0, 0.1, 0], "mesh": {"file": "no_such.obj"}}]})";
+  EXPECT_EQ(loadError(json).rfind("objects[0].mesh.file = \"no_such.obj\": no such file (", 0), 0u) << loadError(json);
+  const std::string body = std::string("{") + kDomain +
+                           R"(, "bodies": [{"name": "tool", "shape": {"type": "mesh", "file": "../nothing.stl"}}]})";
+  EXPECT_EQ(loadError(body).rfind("bodies[0].shape.file = \"../nothing.stl\": no such file (", 0), 0u);
+}
+
+TEST(SceneFileErrors, ToolAndThreadErrorsAreRenamedToTheirKeys) {
+  const std::string scalpel = R"({"name": "scalpel", "shape": {"type": "box", "halfExtents": [0.01, 0.01, 0.001]},
+                                  "coupled": false})";
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "bodies": [)" + scalpel +
+                      R"(], "slicers": [{"body": "scalpel", "halfLength": -0.01}]})")
+                .rfind("slicers[0].halfLength = -0.01: ", 0),
+            0u);
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "slicers": [{"body": "knife"}]})"),
+            "slicers[0].body = \"knife\": no body of this name");
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"segments": 1, "start": [0, 0.2, 0]}]})"),
+            "threads[0].segments = 1: must be >= 2");
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"start": [0, 0.2, 0], "pins": [{"point": 31}]}]})")
+                .rfind("threads[0].pins[0].point = 31: ", 0),
+            0u);
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"direction": [1, 0, 0]}]})"),
+            "threads[0].start = missing: required unless a pin holds point 0 to a body at a pivot");
+  EXPECT_EQ(loadError("{\"settings\": {\"dx\": -1}}"), "settings.dx = -1: must be > 0");
+  EXPECT_EQ(loadError("[1, 2]"), "(scene) = [1,2]: must be an object");
+  EXPECT_EQ(loadError("{\"settings\": ").rfind("(scene) = (not JSON): ", 0), 0u);
+}
+
+// --- the file's keys map onto the same physics as the C++ setup -------------------------
+
+// a 0.2 kg ball dropped on a slab on the ground, standard MPM, every field away from its default
+constexpr char kBallOnSlab[] = R"({
+  "settings": {"domain": {"lower": [-0.15, -0.05, -0.15], "upper": [0.15, 0.25, 0.15]}, "dx": 0.02,
+               "solver": "StandardMpm", "standardMpm": {"flipBlend": 0.9}, "substeps": {"cflNumber": 0.25},
+               "backend": "Cpu", "cpuThreads": 1},
+  "world": {"gravity": [0, -9.81, 0], "tick": 0.005, "solverIterations": 12},
+  "objects": [{"name": "slab", "center": [0, 0.041, 0], "halfExtents": [0.1, 0.04, 0.1],
+               "material": {"model": "NeoHookeanDecoupled", "youngsModulus": 2e4, "poissonRatio": 0.35, "density": 1100}}],
+  "bodies": [{"name": "ground", "shape": {"type": "plane"}},
+             {"name": "ball", "shape": {"type": "sphere", "radius": 0.03}, "mass": 0.2,
+              "pose": {"position": [0.01, 0.115, 0]}, "linearVelocity": [0, -0.2, 0], "friction": 0.3,
+              "coupling": {"contact": {"mode": "Frictional", "friction": 0.5, "band": 0.001}}}],
+  "output": {"frames": 4, "frameTime": 0.02}
+})";
+
+TEST(SceneFilePhysics, BallOnSlabMatchesTheSameSetupInCpp) {
+  auto loaded = LoadedScene::fromString(kBallOnSlab);
+  for (int f = 0; f < 4; ++f) loaded->advanceFrame();
+
+  // the same by hand
+  btDefaultCollisionConfiguration config;
+  btCollisionDispatcher dispatcher(&config);
+  btDbvtBroadphase broadphase;
+  btMultiBodyConstraintSolver solver;
+  btMultiBodyDynamicsWorld world(&dispatcher, &broadphase, &solver, &config);
+  world.setGravity(btVector3(0, -9.81f, 0));
+  world.getSolverInfo().m_numIterations = 12;
+  mpm::SceneSettings settings;
+  settings.domain.lower = {-0.15f, -0.05f, -0.15f};
+  settings.domain.upper = {0.15f, 0.25f, 0.15f};
+  settings.dx = 0.02f;
+  settings.solver = mpm::SolverType::StandardMpm;
+  settings.standardMpm.flipBlend = 0.9f;
+  settings.substeps.cflNumber = 0.25f;
+  settings.backend = mpm::Backend::Cpu;
+  settings.cpuThreads = 1;
+  mpm::Scene scene(settings);
+  mpm::ParticleObjectDesc slab;
+  slab.center = {0.f, 0.041f, 0.f};
+  slab.halfExtents = {0.1f, 0.04f, 0.1f};
+  slab.material = {mpm::MaterialModel::NeoHookeanDecoupled, 2e4f, 0.35f, 1100.f};
+  const mpm::ParticleObjectId slabId = scene.addParticleObject(slab);
+  mpm::bullet::Coupler coupler(&world, scene);
+  btStaticPlaneShape groundShape(btVector3(0, 1, 0), 0);
+  btRigidBody ground(0.f, nullptr, &groundShape);
+  world.addRigidBody(&ground);
+  coupler.addRigidBody(&ground);
+  btSphereShape ballShape(0.03f);
+  btVector3 inertia;
+  ballShape.calculateLocalInertia(0.2f, inertia);
+  btRigidBody::btRigidBodyConstructionInfo info(0.2f, nullptr, &ballShape, inertia);
+  info.m_startWorldTransform = btTransform(btQuaternion::getIdentity(), btVector3(0.01f, 0.115f, 0));
+  info.m_friction = 0.3f;
+  btRigidBody ball(info);
+  ball.setLinearVelocity(btVector3(0, -0.2f, 0));
+  world.addRigidBody(&ball);
+  mpm::bullet::CouplingOptions options;
+  options.contact.mode = mpm::ContactMode::Frictional;
+  options.contact.friction = 0.5f;
+  options.contact.band = 0.001f;
+  coupler.addRigidBody(&ball, options);
+  for (int f = 0; f < 4; ++f) {
+    world.stepSimulation(4 * 0.005f, 5, 0.005f);
+    coupler.rethrowError();
+  }
+
+  const btVector3 a = loaded->body("ball")->getCenterOfMassPosition(), b = ball.getCenterOfMassPosition();
+  const btVector3 va = loaded->body("ball")->getLinearVelocity(), vb = ball.getLinearVelocity();
+  EXPECT_LT(a.y(), 0.105f) << "the ball fell onto the slab (its top at 0.081 m)";
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(a[k], b[k], 1e-6f) << "ball position " << k;
+    EXPECT_NEAR(va[k], vb[k], 1e-5f) << "ball velocity " << k;
+  }
+  const mpm::ObjectSummary sa = loaded->scene().summary(loaded->object("slab")), sb = scene.summary(slabId);
+  EXPECT_EQ(sa.particles, sb.particles);
+  EXPECT_NEAR(sa.mass, sb.mass, 1e-6 * sb.mass);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(sa.centerOfMass[k], sb.centerOfMass[k], 1e-6);
+    EXPECT_NEAR(sa.momentum[k], sb.momentum[k], 1e-6 * sb.mass);
+  }
+  EXPECT_NE(sa.momentum[1], 0.0) << "the ball pushed the slab";
+  world.removeRigidBody(&ball);
+  world.removeRigidBody(&ground);
+}
+
+TEST(SceneFilePhysics, FreeFallingTissueBoxFollowsGravity) {
+  // one Bullet tick of 0.1 s in 40 fixed substeps: symplectic Euler gives the fall
+  // g t^2 (1 + 1/N) / 2 (as tests/test_c_api.c checks through the C API)
+  auto loaded = LoadedScene::fromString(R"({
+    "settings": {"domain": {"lower": [-0.3, -0.5, -0.3], "upper": [0.3, 0.5, 0.3]}, "dx": 0.025,
+                 "gravity": [0, -9.81, 0], "substeps": {"fixedSubsteps": 40}, "cpuThreads": 1, "backend": "Cpu"},
+    "world": {"tick": 0.1},
+    "objects": [{"name": "box", "center": [0, 0.3, 0], "halfExtents": [0.05, 0.05, 0.05],
+                 "material": {"youngsModulus": 2e4}}],
+    "output": {"frames": 1, "frameTime": 0.1}})");
+  const double y0 = loaded->scene().summary(loaded->object("box")).centerOfMass[1];
+  loaded->advanceFrame();
+  const double t = loaded->scene().time(), N = 40;
+  EXPECT_NEAR(t, 0.1, 1e-6);
+  const double fall = 0.5 * 9.81 * t * t * (1 + 1 / N);
+  const double fell = y0 - loaded->scene().summary(loaded->object("box")).centerOfMass[1];
+  EXPECT_NEAR(fell, fall, 1e-3 * fall);
+}
+
+// --- scripted motion and checkpoints ---------------------------------------------------
+
+TEST(SceneFileMotion, KinematicKeyframesMoveTheBodyAlongThePath) {
+  auto loaded = LoadedScene::fromString(std::string("{") + kDomain + R"(,
+    "world": {"tick": 0.01},
+    "bodies": [{"name": "tool", "shape": {"type": "sphere", "radius": 0.01}, "coupled": false,
+                "motion": {"mode": "kinematic", "ease": "linear", "keyframes": [
+                  {"time": 0, "position": [0, 0.2, 0]}, {"time": 0.1, "position": [0.1, 0.2, 0]}]}}],
+    "output": {"frameTime": 0.05}})");
+  loaded->advanceFrame();  // Bullet takes the pose a tick ahead of the frame's start: 0.01 s
+  EXPECT_NEAR(loaded->body("tool")->getCenterOfMassPosition().x(), 0.01f, 1e-5f);
+  loaded->advanceFrame();
+  loaded->advanceFrame();
+  EXPECT_NEAR(loaded->body("tool")->getCenterOfMassPosition().x(), 0.1f, 1e-5f) << "held after the last keyframe";
+}
+
+TEST(SceneFileCheckpoint, CouplerCheckpointResumesTheRun) {
+  const char* coarse = R"({"settings": {"dx": 0.02, "cpuThreads": 1, "backend": "Cpu"}})";
+  auto loaded = LoadedScene::fromFile(mpm::test::assetPath("scenes/coupling.json"), coarse);
+  loaded->advanceFrame();
+  const std::string path = testing::TempDir() + "/scene_file_coupling.ckpt";
+  loaded->saveCheckpoint(path);
+  loaded->advanceFrame();
+  const float y = (float)loaded->body("heavy")->getCenterOfMassPosition().y();
+  auto resumed = LoadedScene::fromFile(mpm::test::assetPath("scenes/coupling.json"), coarse);
+  resumed->loadCheckpoint(path);
+  EXPECT_EQ(resumed->frame(), 1);
+  resumed->advanceFrame();
+  EXPECT_EQ((float)resumed->body("heavy")->getCenterOfMassPosition().y(), y);
+}
+
+TEST(SceneFileCheckpoint, ASceneWithNeedlesRefusesCheckpointsWithTheCouplersReason) {
+  auto loaded = LoadedScene::fromFile(mpm::test::assetPath("scenes/suturing.json"),
+                                      R"({"settings": {"dx": 0.005, "cpuThreads": 1}})");
+  EXPECT_THROW(loaded->saveCheckpoint(testing::TempDir() + "/scene_file_suturing.ckpt"), mpm::CheckpointError);
+}
+
+}  // namespace
