@@ -300,6 +300,43 @@ TEST(MeshImport, FaceIndexOutOfRangeIsRefused) {
   std::remove(path.c_str());
 }
 
+// fuzz_mesh_import found it: assimp's binary PLY reader reads a face's vertices as its count
+// byte promises (191 where the file had 3), past the end of the file (a segmentation
+// fault). The body is now walked by the header first and a file that ends early is refused
+// naming the element; the fuzzer's input (its format byte first) and a small one
+TEST(MeshImport, BinaryPlyEndingEarlyIsRefused) {
+  const std::string found = fileBytes(mpm::test::sourcePath("tests/fuzz/corpus/mesh/regress-ply-list-past-the-end"));
+  ASSERT_GT(found.size(), 1u);
+  std::string small =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const float corners[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const int32_t face[3] = {0, 1, 2};
+  small.append(reinterpret_cast<const char*>(corners), sizeof corners);
+  small.push_back(char(200));  // 200 vertices promised, 3 given
+  small.append(reinterpret_cast<const char*>(face), sizeof face);
+  const std::string path = tempPath("ply_ending_early.ply");
+  std::ofstream(path, std::ios::binary) << small;
+  auto message = [](auto load) -> std::string {
+    try {
+      load();
+    } catch (const mpm::Error& e) {
+      return e.what();
+    }
+    return "no error";
+  };
+  const std::string fromFound = message([&] { loadTriangleMeshFromMemory(found.data() + 1, found.size() - 1, "ply"); });
+  EXPECT_NE(fromFound.find("PLY header line 11 'end_headerSt9exception': not a header line"), std::string::npos)
+      << fromFound;
+  for (const std::string& m : {message([&] { loadTriangleMeshFromMemory(small.data(), small.size(), "ply"); }),
+                               message([&] { loadTriangleMesh(path); })})
+    EXPECT_NE(m.find("PLY element 'face' 0 of 1: the file ends inside it (12 bytes left, 800 needed)"), std::string::npos)
+        << m;
+  small.replace(small.size() - 13, 1, 1, char(3));  // the face as promised: read
+  EXPECT_EQ(loadTriangleMeshFromMemory(small.data(), small.size(), "ply").triangleCount(), 1u);
+  std::remove(path.c_str());
+}
+
 // ---------------------------------------------------------------- Bullet shapes
 
 void expectAabb(const btCollisionShape& shape, const Bounds& b, float padLow, float padHigh, const char* what) {

@@ -11,10 +11,13 @@
 #include <BulletCollision/CollisionShapes/btTriangleIndexVertexArray.h>
 #include <BulletCollision/Gimpact/btGImpactShape.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <unordered_map>
@@ -135,6 +138,128 @@ mpm::TriangleMesh collectTriangles(const Assimp::Importer& importer, const aiSce
   return mesh;
 }
 
+/// assimp's binary PLY reader trusts the header: an element's count and each list's length
+/// (a face's vertex count) are read as promised, past the end of the file when it ends
+/// sooner (fuzz_mesh_import found a face of 191 vertices in a file that held 3: a
+/// segmentation fault). Walks the body of a binary PLY by its header and refuses a file
+/// that ends before it or a header line it cannot follow; other files (not PLY, or ASCII
+/// PLY) pass unchecked.
+void checkBinaryPly(const uint8_t* data, size_t size, const std::string& what) {
+  if (size < 4 || std::memcmp(data, "ply", 3) != 0 || (data[3] != '\n' && data[3] != '\r')) return;
+  auto refuse = [&](const std::string& why) { throw mpm::Error("loadTriangleMesh: " + what + ": PLY " + why); };
+  struct Property {
+    int size = 0, countSize = 0;  // countSize > 0: a list whose length is that wide
+    bool signedCount = false;
+  };
+  struct Element {
+    std::string name;
+    unsigned long long count = 0;
+    std::vector<Property> properties;
+  };
+  auto typeSize = [&](const std::string& type, bool* isSigned) {
+    static const std::pair<const char*, int> types[] = {
+        {"char", 1},  {"int8", 1},   {"uchar", 1}, {"uint8", 1},   {"short", 2},   {"int16", 2},
+        {"ushort", 2}, {"uint16", 2}, {"int", 4},   {"int32", 4},   {"uint", 4},    {"uint32", 4},
+        {"float", 4}, {"float32", 4}, {"double", 8}, {"float64", 8}};
+    for (const auto& t : types)
+      if (type == t.first) {
+        if (isSigned) *isSigned = type[0] != 'u';
+        return t.second;
+      }
+    refuse("header: property type '" + type + "' is none of PLY's");
+    return 0;
+  };
+  std::vector<Element> elements;
+  bool bigEndian = false;
+  size_t at = 0;
+  for (int line = 1;; ++line) {
+    const size_t end = std::find(data + at, data + size, '\n') - data;
+    if (end == size) return;  // no end of the header: assimp refuses the file itself
+    std::string text(reinterpret_cast<const char*>(data) + at, end - at);
+    at = end + 1;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    std::vector<std::string> words;
+    for (size_t i = 0; i < text.size();) {
+      const size_t from = text.find_first_not_of(" \t", i);
+      if (from == std::string::npos) break;
+      const size_t to = std::min(text.find_first_of(" \t", from), text.size());
+      words.push_back(text.substr(from, to - from));
+      i = to;
+    }
+    if (words.empty() || words[0] == "ply" || words[0] == "comment" || words[0] == "obj_info") continue;
+    const std::string where = "header line " + std::to_string(line) + " '" + text.substr(0, 60) + "'";
+    if (words[0] == "format") {
+      if (words.size() < 2) refuse(where + ": no format");
+      if (words[1] == "ascii") return;
+      if (words[1] != "binary_little_endian" && words[1] != "binary_big_endian") return;  // assimp refuses it
+      bigEndian = words[1] == "binary_big_endian";
+    } else if (words[0] == "element") {
+      if (words.size() != 3 || words[2].empty() || words[2].find_first_not_of("0123456789") != std::string::npos ||
+          words[2].size() > 18)
+        refuse(where + ": an element is 'element NAME COUNT'");
+      elements.push_back({words[1], std::stoull(words[2]), {}});
+    } else if (words[0] == "property") {
+      if (elements.empty()) refuse(where + ": a property before any element");
+      Property p;
+      if (words.size() == 5 && words[1] == "list") {
+        p.countSize = typeSize(words[2], &p.signedCount);
+        p.size = typeSize(words[3], nullptr);
+      } else if (words.size() == 3) {
+        p.size = typeSize(words[1], nullptr);
+      } else {
+        refuse(where + ": a property is 'property TYPE NAME' or 'property list COUNT_TYPE TYPE NAME'");
+      }
+      elements.back().properties.push_back(p);
+    } else if (words[0] == "end_header" && words.size() == 1) {
+      break;
+    } else {
+      refuse(where + ": not a header line");
+    }
+  }
+  // the body: every element's items, each list as long as its count says
+  for (const Element& e : elements) {
+    bool fixed = true;
+    unsigned long long itemBytes = 0;
+    for (const Property& p : e.properties) {
+      fixed = fixed && p.countSize == 0;
+      itemBytes += p.size;
+    }
+    if (fixed) {
+      const unsigned long long left = size - at;
+      if (itemBytes > 0 && e.count > left / itemBytes)
+        refuse("element '" + e.name + "': " + std::to_string(e.count) + " of " + std::to_string(itemBytes) +
+               " bytes each, but the file has " + std::to_string(left) + " bytes left");
+      at += itemBytes * e.count;
+      continue;
+    }
+    for (unsigned long long item = 0; item < e.count; ++item)
+      for (const Property& p : e.properties) {
+        auto past = [&](size_t bytes) {
+          if (bytes > size - at)
+            refuse("element '" + e.name + "' " + std::to_string(item) + " of " + std::to_string(e.count) +
+                   ": the file ends inside it (" + std::to_string(size - at) + " bytes left, " + std::to_string(bytes) +
+                   " needed)");
+        };
+        if (p.countSize == 0) {
+          past(p.size);
+          at += p.size;
+          continue;
+        }
+        past(p.countSize);
+        uint64_t n = 0;
+        for (int b = 0; b < p.countSize; ++b) {
+          const int byte = bigEndian ? b : p.countSize - 1 - b;
+          n = (n << 8) | data[at + byte];
+        }
+        if (p.signedCount && (n >> (8 * p.countSize - 1)) != 0)
+          refuse("element '" + e.name + "' " + std::to_string(item) + ": a list of negative length");
+        at += p.countSize;
+        past(n * p.size);  // n < 2^32, size <= 8: no overflow
+        at += n * p.size;
+      }
+  }
+}
+
 /// An assimp file system with no files in it: reading from memory, the bytes given are the
 /// whole input, and nothing else on the disk is read on their say.
 class NoFiles : public Assimp::IOSystem {
@@ -219,6 +344,16 @@ class OwningGImpactMeshShape : private OwnedTriangleArrayHolder, public btGImpac
 
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
   checkScale(scale);
+  {
+    // a PLY's body is checked against its header before assimp reads it (checkBinaryPly)
+    std::ifstream in(path, std::ios::binary);
+    char magic[3] = {0, 0, 0};
+    if (in.read(magic, 3) && std::memcmp(magic, "ply", 3) == 0) {
+      in.seekg(0);
+      const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      checkBinaryPly(bytes.data(), bytes.size(), "'" + path + "'");
+    }
+  }
   Assimp::Importer importer;
   configure(importer);
   const aiScene* scene = importer.ReadFile(path, kImportSteps);
@@ -239,6 +374,7 @@ mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, cons
       !importer.IsExtensionSupported("." + formatHint))
     throw mpm::InvalidArgument("formatHint", "'" + formatHint + "'",
                                "must be the extension of a mesh format assimp reads (obj, stl, ply, gltf, glb, ...)");
+  checkBinaryPly(static_cast<const uint8_t*>(data), size, name + " (" + formatHint + ")");
   configure(importer);
   // the bytes are the whole file: a reference to another file finds nothing
   importer.SetIOHandler(new NoFiles);
