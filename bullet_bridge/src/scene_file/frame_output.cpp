@@ -59,6 +59,17 @@ void LoadedScene::writePng(const std::string& path) const {
     addPolyline(arc, wire, points);
     renderer.addParticles(points, 2.f * wire, {90, 95, 120});
   }
+  for (const Slicer& sl : s.slicers) {  // the blade's face, as the tissue saw it
+    const ShapeState blade = s.scene->slicerState(sl.id);
+    const QuadSlicerDesc& d = sl.blade;
+    const btTransform frame(btQuaternion(blade.pose.rotation.x, blade.pose.rotation.y, blade.pose.rotation.z,
+                                         blade.pose.rotation.w),
+                            btVector3(blade.pose.position.x, blade.pose.position.y, blade.pose.position.z));
+    std::vector<Vec3f> steel;
+    for (float a = -d.halfLength; a <= d.halfLength; a += 2.f * wire)
+      for (float b = 0.f; b <= d.width; b += 2.f * wire) steel.push_back(vec(frame * btVector3(a, b, 0)));
+    renderer.addParticles(steel, 2.f * wire, {170, 175, 190});
+  }
   for (const Thread& t : s.threads) {
     std::vector<Vec3f> points;
     addPolyline(threadPoints(t.multibody), wire, points);

@@ -124,7 +124,7 @@ void LoadedScene::Impl::hookTicks() {
     auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
     for (auto& b : bodies)
       if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
-    for (auto& [body, id] : slicers) add(body, scene->slicerImpulse(id));
+    for (Slicer& sl : slicers) add(sl.body, scene->slicerImpulse(sl.id));
     for (Needle& n : needles) add(n.body, scene->curveImpulse(n.curve));
   });
 }

@@ -44,6 +44,12 @@ struct Needle {
   CurveId curve;
 };
 
+struct Slicer {
+  Body* body;
+  QuadSlicerDesc blade;
+  SlicerId id;
+};
+
 struct Thread {
   std::string name;
   btMultiBody* multibody = nullptr;  ///< destroySutureThread releases it
@@ -87,7 +93,7 @@ struct LoadedScene::Impl {
   std::vector<scene_file::Object> objects;
   std::vector<std::unique_ptr<scene_file::Body>> bodies;
   std::vector<scene_file::Needle> needles;
-  std::vector<std::pair<scene_file::Body*, SlicerId>> slicers;
+  std::vector<scene_file::Slicer> slicers;
   std::vector<scene_file::Thread> threads;
   scene_file::Output output;
 

@@ -158,7 +158,7 @@ void readSlicers(const Json& slicers, LoadedScene::Impl& s) {
     n.read("pose", d.pose);
     n.finish();
     try {
-      s.slicers.push_back({body, s.coupler->addSlicer(body->body.get(), d)});
+      s.slicers.push_back({body, d, s.coupler->addSlicer(body->body.get(), d)});
     } catch (const InvalidArgument& e) {
       rethrowAt(e, "QuadSlicerDesc", n.path());
     }
