@@ -25,7 +25,11 @@ int main(int argc, char** argv) {
   app.add_option("--load-checkpoint", loadPath, "start from this checkpoint (Coupler::save)");
   app.add_option("--save-checkpoint", savePath, "write a checkpoint after the last frame");
   app.add_flag("--check", check, "only load and validate the scene file");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 1;  // --help is not an error; a bad command line is one like any other
+  }
 
   try {
     // command-line settings go in as a merge patch over the file
