@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <btBulletDynamicsCommon.h>
+#include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 
@@ -14,6 +15,7 @@
 
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/scene_file.h"
+#include "mpm_bullet/suture.h"
 #include "test_paths.h"
 
 namespace {
@@ -250,6 +252,26 @@ TEST(SceneFilePhysics, FreeFallingTissueBoxFollowsGravity) {
   const double fall = 0.5 * 9.81 * t * t * (1 + 1 / N);
   const double fell = y0 - loaded->scene().summary(loaded->object("box")).centerOfMass[1];
   EXPECT_NEAR(fell, fall, 1e-3 * fall);
+}
+
+TEST(SceneFileThreads, AFixedBaseThreadIsAnchoredAndPinsAreWhereThePointsAre) {
+  auto loaded = LoadedScene::fromString(std::string("{") + kDomain + R"(,
+    "world": {"gravity": [0, -9.81, 0], "tick": 0.0010416667, "solverIterations": 50},
+    "threads": [{"name": "anchored", "length": 0.06, "segments": 12, "linearDensity": 1e-3, "start": [0, 0.25, 0],
+                 "direction": [1, 0, 0], "fixedBase": true},
+                {"name": "pinned", "length": 0.06, "segments": 12, "linearDensity": 1e-3, "start": [0, 0.25, 0.05],
+                 "direction": [1, 0, 0], "pins": [{"point": 0}]}],
+    "output": {"frameTime": 0.0104166667}})");
+  EXPECT_TRUE(loaded->thread("anchored")->hasFixedBase());
+  EXPECT_FALSE(loaded->thread("pinned")->hasFixedBase());
+  loaded->advanceFrame();
+  // both hang from their first point: it stays where it was built (the pin's pivot
+  // defaults to the point's position), the free ends fall
+  for (const char* name : {"anchored", "pinned"}) {
+    const std::vector<btVector3> p = mpm::bullet::threadPoints(loaded->thread(name));
+    EXPECT_LT((p.front() - btVector3(0, 0.25f, name[0] == 'a' ? 0.f : 0.05f)).length(), 1e-4f) << name;
+    EXPECT_LT(p.back().y(), 0.25f - 1e-4f) << name;
+  }
 }
 
 // --- scripted motion and checkpoints ---------------------------------------------------

@@ -3,7 +3,6 @@
 // SutureThreadDesc, ThreadCoupling), so the library's errors are renamed to key paths.
 #include <algorithm>
 #include <cmath>
-#include <type_traits>
 
 #include "scene_file/readers.h"
 
@@ -19,17 +18,6 @@ Body* readBodyName(Node& n, const LoadedScene::Impl& s) {
   Body* b = s.findBody(name);
   if (!b) fail(n.at("body"), name, "no body of this name");
   return b;
-}
-
-/// SutureThreadDesc::fixedBase where this build has it (threads fixed at one end).
-template <class D>
-auto setFixedBase(D& d, bool v, int) -> decltype(d.fixedBase = v, bool()) {
-  d.fixedBase = v;
-  return true;
-}
-template <class D>
-bool setFixedBase(D&, bool, long) {
-  return false;
 }
 
 /// Turns each joint of `thread` by `bend` (a world-frame rotation), so that it starts with
@@ -72,9 +60,7 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
   const bool hasStart = n.read("start", v);
   d.start = bt(v);
   if (n.read("direction", v)) d.direction = bt(v);
-  bool fixedBase = false;
-  if (n.read("fixedBase", fixedBase) && !setFixedBase(d, fixedBase, 0))
-    fail(n.at("fixedBase"), fixedBase, "this build's SutureThreadDesc has no fixedBase");
+  n.read("fixedBase", d.fixedBase);
   n.read("friction", d.friction);
   n.read("collisionGroup", d.collisionGroup);
   n.read("collisionMask", d.collisionMask);
