@@ -138,25 +138,72 @@ mpm::TriangleMesh collectTriangles(const Assimp::Importer& importer, const aiSce
   return mesh;
 }
 
-/// assimp's binary PLY reader trusts the header: an element's count and each list's length
-/// (a face's vertex count) are read as promised, past the end of the file when it ends
-/// sooner (fuzz_mesh_import found a face of 191 vertices in a file that held 3: a
-/// segmentation fault). Walks the body of a binary PLY by its header and refuses a file
-/// that ends before it or a header line it cannot follow; other files (not PLY, or ASCII
-/// PLY) pass unchecked.
-void checkBinaryPly(const uint8_t* data, size_t size, const std::string& what) {
+/// Is `word` a number assimp's PLY reader parses whole: [+-] digits [. digits] [e [+-] digits]
+/// (or the fraction alone); an integer type's without a fraction or exponent.
+bool plyNumber(const std::string& word, bool integer) {
+  size_t i = word.size() > 0 && (word[0] == '+' || word[0] == '-') ? 1 : 0;
+  auto digits = [&] {
+    const size_t from = i;
+    while (i < word.size() && word[i] >= '0' && word[i] <= '9') ++i;
+    return i - from;
+  };
+  size_t whole = digits();
+  if (integer) return whole > 0 && i == word.size();
+  if (i < word.size() && word[i] == '.') {
+    ++i;
+    whole += digits();
+  }
+  if (whole == 0) return false;
+  if (i < word.size() && (word[i] == 'e' || word[i] == 'E')) {
+    ++i;
+    if (i < word.size() && (word[i] == '+' || word[i] == '-')) ++i;
+    if (digits() == 0) return false;
+  }
+  return i == word.size();
+}
+
+/// Up to 40 characters of `text` for a message, every byte that is no printable ASCII as '?'.
+std::string printable(const std::string& text) {
+  std::string out = text.substr(0, 40);
+  for (char& c : out)
+    if (c < 32 || c > 126) c = '?';
+  return out;
+}
+
+/// The words of a line, split at spaces and tabs.
+std::vector<std::string> wordsOf(const std::string& text) {
+  std::vector<std::string> words;
+  for (size_t i = 0; i < text.size();) {
+    const size_t from = text.find_first_not_of(" \t", i);
+    if (from == std::string::npos) break;
+    const size_t to = std::min(text.find_first_of(" \t", from), text.size());
+    words.push_back(text.substr(from, to - from));
+    i = to;
+  }
+  return words;
+}
+
+/// assimp's PLY reader trusts the header: in a binary file an element's count and each
+/// list's length (a face's vertex count) are read as promised, past the end of the file
+/// when it ends sooner (fuzz_mesh_import found a face of 191 vertices in a file that held
+/// 3: a segmentation fault); in an ASCII file a value that is no number throws from inside
+/// the reader, which then leaks the mesh it was filling (found too). Walks the body of a
+/// PLY by its header (binary: bytes; ASCII: one line per item, one number per value) and
+/// refuses a file that does not hold what its header says, naming the element and item, or
+/// a header line it cannot follow; files that are not PLY pass unchecked.
+void checkPly(const uint8_t* data, size_t size, const std::string& what) {
   if (size < 4 || std::memcmp(data, "ply", 3) != 0 || (data[3] != '\n' && data[3] != '\r')) return;
   auto refuse = [&](const std::string& why) { throw mpm::Error("loadTriangleMesh: " + what + ": PLY " + why); };
   struct Property {
     int size = 0, countSize = 0;  // countSize > 0: a list whose length is that wide
-    bool signedCount = false;
+    bool signedCount = false, integer = false;
   };
   struct Element {
     std::string name;
     unsigned long long count = 0;
     std::vector<Property> properties;
   };
-  auto typeSize = [&](const std::string& type, bool* isSigned) {
+  auto typeSize = [&](const std::string& type, bool* isSigned, bool* integer) {
     static const std::pair<const char*, int> types[] = {
         {"char", 1},  {"int8", 1},   {"uchar", 1}, {"uint8", 1},   {"short", 2},   {"int16", 2},
         {"ushort", 2}, {"uint16", 2}, {"int", 4},   {"int32", 4},   {"uint", 4},    {"uint32", 4},
@@ -164,13 +211,14 @@ void checkBinaryPly(const uint8_t* data, size_t size, const std::string& what) {
     for (const auto& t : types)
       if (type == t.first) {
         if (isSigned) *isSigned = type[0] != 'u';
+        if (integer) *integer = type.compare(0, 5, "float") != 0 && type != "double";
         return t.second;
       }
     refuse("header: property type '" + type + "' is none of PLY's");
     return 0;
   };
   std::vector<Element> elements;
-  bool bigEndian = false;
+  bool bigEndian = false, ascii = false;
   size_t at = 0;
   for (int line = 1;; ++line) {
     const size_t end = std::find(data + at, data + size, '\n') - data;
@@ -178,20 +226,14 @@ void checkBinaryPly(const uint8_t* data, size_t size, const std::string& what) {
     std::string text(reinterpret_cast<const char*>(data) + at, end - at);
     at = end + 1;
     if (!text.empty() && text.back() == '\r') text.pop_back();
-    std::vector<std::string> words;
-    for (size_t i = 0; i < text.size();) {
-      const size_t from = text.find_first_not_of(" \t", i);
-      if (from == std::string::npos) break;
-      const size_t to = std::min(text.find_first_of(" \t", from), text.size());
-      words.push_back(text.substr(from, to - from));
-      i = to;
-    }
+    const std::vector<std::string> words = wordsOf(text);
     if (words.empty() || words[0] == "ply" || words[0] == "comment" || words[0] == "obj_info") continue;
-    const std::string where = "header line " + std::to_string(line) + " '" + text.substr(0, 60) + "'";
+    const std::string where = "header line " + std::to_string(line) + " '" + printable(text) + "'";
     if (words[0] == "format") {
       if (words.size() < 2) refuse(where + ": no format");
-      if (words[1] == "ascii") return;
-      if (words[1] != "binary_little_endian" && words[1] != "binary_big_endian") return;  // assimp refuses it
+      if (words[1] != "ascii" && words[1] != "binary_little_endian" && words[1] != "binary_big_endian")
+        return;  // assimp refuses it
+      ascii = words[1] == "ascii";
       bigEndian = words[1] == "binary_big_endian";
     } else if (words[0] == "element") {
       if (words.size() != 3 || words[2].empty() || words[2].find_first_not_of("0123456789") != std::string::npos ||
@@ -202,10 +244,10 @@ void checkBinaryPly(const uint8_t* data, size_t size, const std::string& what) {
       if (elements.empty()) refuse(where + ": a property before any element");
       Property p;
       if (words.size() == 5 && words[1] == "list") {
-        p.countSize = typeSize(words[2], &p.signedCount);
-        p.size = typeSize(words[3], nullptr);
+        p.countSize = typeSize(words[2], &p.signedCount, nullptr);
+        p.size = typeSize(words[3], nullptr, &p.integer);
       } else if (words.size() == 3) {
-        p.size = typeSize(words[1], nullptr);
+        p.size = typeSize(words[1], nullptr, &p.integer);
       } else {
         refuse(where + ": a property is 'property TYPE NAME' or 'property list COUNT_TYPE TYPE NAME'");
       }
@@ -215,6 +257,38 @@ void checkBinaryPly(const uint8_t* data, size_t size, const std::string& what) {
     } else {
       refuse(where + ": not a header line");
     }
+  }
+  if (ascii) {
+    // one line per item, as many numbers on it as its properties (and lists) say
+    int line = 0;
+    for (const Element& e : elements)
+      for (unsigned long long item = 0; item < e.count; ++item) {
+        const std::string where = "element '" + e.name + "' " + std::to_string(item) + " of " + std::to_string(e.count);
+        if (at >= size) refuse(where + ": the file ends before it");
+        const size_t end = std::find(data + at, data + size, '\n') - data;
+        std::string text(reinterpret_cast<const char*>(data) + at, end - at);
+        at = std::min(end + 1, size);
+        ++line;
+        if (!text.empty() && text.back() == '\r') text.pop_back();
+        const std::vector<std::string> words = wordsOf(text);
+        const std::string here = where + " (body line " + std::to_string(line) + ")";
+        size_t w = 0;
+        for (const Property& p : e.properties) {
+          size_t n = 1;
+          if (p.countSize > 0) {
+            if (w >= words.size() || !plyNumber(words[w], true) || words[w][0] == '-' || words[w].size() > 9)
+              refuse(here + ": '" + (w < words.size() ? printable(words[w]) : "") + "' is no list length");
+            n = std::stoul(words[w++]);
+          }
+          for (size_t k = 0; k < n; ++k, ++w)
+            if (w >= words.size() || !plyNumber(words[w], p.integer))
+              refuse(here + ": '" + (w < words.size() ? printable(words[w]) : "") + "' is no " +
+                     (p.integer ? "integer" : "number") + (w >= words.size() ? " (the line ends)" : ""));
+        }
+        if (w != words.size())
+          refuse(here + ": " + std::to_string(words.size() - w) + " values more than its properties");
+      }
+    return;
   }
   // the body: every element's items, each list as long as its count says
   for (const Element& e : elements) {
@@ -345,13 +419,13 @@ class OwningGImpactMeshShape : private OwnedTriangleArrayHolder, public btGImpac
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
   checkScale(scale);
   {
-    // a PLY's body is checked against its header before assimp reads it (checkBinaryPly)
+    // a PLY's body is checked against its header before assimp reads it (checkPly)
     std::ifstream in(path, std::ios::binary);
     char magic[3] = {0, 0, 0};
     if (in.read(magic, 3) && std::memcmp(magic, "ply", 3) == 0) {
       in.seekg(0);
       const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-      checkBinaryPly(bytes.data(), bytes.size(), "'" + path + "'");
+      checkPly(bytes.data(), bytes.size(), "'" + path + "'");
     }
   }
   Assimp::Importer importer;
@@ -374,7 +448,7 @@ mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, cons
       !importer.IsExtensionSupported("." + formatHint))
     throw mpm::InvalidArgument("formatHint", "'" + formatHint + "'",
                                "must be the extension of a mesh format assimp reads (obj, stl, ply, gltf, glb, ...)");
-  checkBinaryPly(static_cast<const uint8_t*>(data), size, name + " (" + formatHint + ")");
+  checkPly(static_cast<const uint8_t*>(data), size, name + " (" + formatHint + ")");
   configure(importer);
   // the bytes are the whole file: a reference to another file finds nothing
   importer.SetIOHandler(new NoFiles);
