@@ -365,6 +365,28 @@ TEST(MeshImport, AsciiPlyValueThatIsNoNumberIsRefused) {
   for (const auto& b : bad) EXPECT_NE(message(b.first).find(b.second), std::string::npos) << message(b.first);
 }
 
+// fuzz_mesh_import found it: PLY faces of no vertices (a binary file's count byte 0) reached
+// assimp's Triangulate step, whose assertion aborted the program; the read scene's faces are
+// now checked before any post-processing step, from a file and from memory
+TEST(MeshImport, FaceWithoutVerticesIsRefused) {
+  const std::string ply =
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 2\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n"
+      "3 0 1 2\n0\n";
+  const std::string path = tempPath("face_without_vertices.ply");
+  std::ofstream(path) << ply;
+  for (int fromMemory = 0; fromMemory < 2; ++fromMemory) {
+    try {
+      if (fromMemory) loadTriangleMeshFromMemory(ply.data(), ply.size(), "ply");
+      else loadTriangleMesh(path);
+      ADD_FAILURE() << "a face of no vertices was taken";
+    } catch (const mpm::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("face 1 of mesh 0 has no vertices"), std::string::npos) << e.what();
+    }
+  }
+  std::remove(path.c_str());
+}
+
 // ---------------------------------------------------------------- Bullet shapes
 
 void expectAabb(const btCollisionShape& shape, const Bounds& b, float padLow, float padHigh, const char* what) {

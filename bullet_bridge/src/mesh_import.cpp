@@ -98,12 +98,14 @@ void appendNode(const aiScene& scene, const aiNode& node, const aiMatrix4x4& par
     appendNode(scene, *node.mChildren[child], transform, scale, welder, out);
 }
 
-// ValidateDataStructure runs before the other steps: assimp's readers pass on what a file
-// says (a PLY face naming vertex 100000000 of 3), and its post-processing then reads past
-// the vertex array (fuzz_mesh_import found it: a segmentation fault); validated first, such
-// a file is refused with assimp's reason.
-constexpr unsigned kImportSteps = aiProcess_ValidateDataStructure | aiProcess_RemoveComponent | aiProcess_Triangulate |
-                                  aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
+// What assimp's reader made is validated (ValidateDataStructure) and checked here
+// (checkFaces) before any post-processing step: its readers pass on what a file says, and
+// its steps trust it. fuzz_mesh_import found a PLY face naming vertex 100000000 of 3 (the
+// steps read past the vertex array: a segmentation fault) and PLY faces of no vertices
+// (Triangulate's assertion aborted the program); such files are refused with the reason.
+constexpr unsigned kReadSteps = aiProcess_ValidateDataStructure;
+constexpr unsigned kPostSteps =
+    aiProcess_RemoveComponent | aiProcess_Triangulate | aiProcess_JoinIdenticalVertices | aiProcess_SortByPType;
 
 void checkScale(float scale) {
   if (!std::isfinite(scale) || !(scale > 0.f))
@@ -118,6 +120,19 @@ void configure(Assimp::Importer& importer) {
                                   aiComponent_TEXCOORDS | aiComponent_BONEWEIGHTS | aiComponent_ANIMATIONS |
                                   aiComponent_TEXTURES | aiComponent_LIGHTS | aiComponent_CAMERAS);
   importer.SetPropertyInteger(AI_CONFIG_PP_SBP_REMOVE, aiPrimitiveType_POINT | aiPrimitiveType_LINE);
+}
+
+/// The read scene post-processed (kPostSteps) once its faces are checked: a face of no
+/// vertices is refused (assimp validates it only when the reader set the mesh's primitive
+/// types). Null when reading failed (collectTriangles says why).
+const aiScene* postProcessed(Assimp::Importer& importer, const aiScene* scene, const std::string& what) {
+  if (scene == nullptr) return nullptr;
+  for (unsigned m = 0; m < scene->mNumMeshes; ++m)
+    for (unsigned f = 0; f < scene->mMeshes[m]->mNumFaces; ++f)
+      if (scene->mMeshes[m]->mFaces[f].mNumIndices == 0)
+        throw mpm::Error("loadTriangleMesh: " + what + ": face " + std::to_string(f) + " of mesh " + std::to_string(m) +
+                         " has no vertices");
+  return importer.ApplyPostProcessing(kPostSteps);
 }
 
 /// The triangles of what assimp read (`scene`, null when it failed), welded and scaled;
@@ -430,8 +445,9 @@ mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
   }
   Assimp::Importer importer;
   configure(importer);
-  const aiScene* scene = importer.ReadFile(path, kImportSteps);
-  return collectTriangles(importer, scene, "'" + path + "'", scale);
+  const std::string what = "'" + path + "'";
+  const aiScene* scene = postProcessed(importer, importer.ReadFile(path, kReadSteps), what);
+  return collectTriangles(importer, scene, what, scale);
 }
 
 mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, const std::string& formatHint,
@@ -448,12 +464,14 @@ mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, cons
       !importer.IsExtensionSupported("." + formatHint))
     throw mpm::InvalidArgument("formatHint", "'" + formatHint + "'",
                                "must be the extension of a mesh format assimp reads (obj, stl, ply, gltf, glb, ...)");
-  checkPly(static_cast<const uint8_t*>(data), size, name + " (" + formatHint + ")");
+  const std::string what = name + " (" + formatHint + ")";
+  checkPly(static_cast<const uint8_t*>(data), size, what);
   configure(importer);
   // the bytes are the whole file: a reference to another file finds nothing
   importer.SetIOHandler(new NoFiles);
-  const aiScene* scene = importer.ReadFileFromMemory(data, size, kImportSteps, formatHint.c_str());
-  return collectTriangles(importer, scene, name + " (" + formatHint + ")", scale);
+  const aiScene* scene =
+      postProcessed(importer, importer.ReadFileFromMemory(data, size, kReadSteps, formatHint.c_str()), what);
+  return collectTriangles(importer, scene, what, scale);
 }
 
 std::unique_ptr<btCollisionShape> makeBvhTriangleMeshShape(const mpm::TriangleMesh& mesh, float margin) {
