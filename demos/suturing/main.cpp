@@ -26,7 +26,9 @@
 // lists pins on long chains as unstable, bullet3#471): at 0.05 g/m the eye's pin opened
 // at 3.05 s (0.6 mm, then 3 mm at 3.15 s, 16-48 mm after 3.3 s) as the eye went in, as
 // with two pins; with 15 links of 5 mm it opened by 0.75 s (36 mm), before the thread
-// reached the tissue. Closing a stitch is shown with a prescribed
+// reached the tissue; with the eye 10 mm behind the tail (--eye-behind 0.01), inside the
+// tissue from the start, it opened by 21 mm in the first 0.05 s. So it fails whenever the
+// eye's link, pinned to the needle, is in the tissue. Closing a stitch is shown with a prescribed
 // thread in tests/test_suturing.cpp (TighteningAStitchClosesTheGap).
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>
@@ -140,7 +142,7 @@ int main(int argc, char** argv) {
   CLI::App app{"A needle and thread close a gap between two tissue blocks (Bullet + MPM curves)"};
   std::string out = "out/suturing", solverName = "mls";
   int frames = 160, pngEvery = 8, threads = 0;
-  float seconds = 8.f, dx = 0.0025f, punctureForce = 0.03f, threadDensity = 5e-5f;
+  float seconds = 8.f, dx = 0.0025f, punctureForce = 0.03f, threadDensity = 5e-5f, eyeBehind = 0.005f;
   bool twoWay = false, fixedKnot = false;
   int threadSegments = 30;
   float maxForce = 5.f;
@@ -162,6 +164,8 @@ int main(int argc, char** argv) {
   app.add_flag("--fixed-knot", fixedKnot,
                "build the thread from its knot as Bullet's fixed base (one pin left, at the eye) instead of "
                "pinning both ends");
+  app.add_option("--eye-behind", eyeBehind, "the thread's eye behind the needle's tail, along the arc [m]")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--thread-segments", threadSegments, "links of the thread")->check(CLI::PositiveNumber);
   app.add_option("--tick-rate", tickRate, "Bullet's ticks per second")->check(CLI::PositiveNumber);
   app.add_option("--max-force", maxForce, "the needle driver's force limit [N]")->check(CLI::PositiveNumber);
@@ -253,7 +257,7 @@ int main(int argc, char** argv) {
     // fixed to the needle 5 mm (two cells) behind its tail on the arc's circle, as a
     // swaged eye: a thread segment sharing grid nodes with the needle takes the needle's
     // drag in one tick and blew up (coupler.h, addThread)
-    const float eye = -0.005f / kNeedleR;
+    const float eye = -eyeBehind / kNeedleR;
     const btVector3 eyeInNeedle(kNeedleR * std::cos(eye), kNeedleR * std::sin(eye), 0);
     td.start = script.pose(0.f) * eyeInNeedle;
     td.direction = btVector3(-1, 0.3f, -0.45f);  // rising: clear of the tissue's contact band
