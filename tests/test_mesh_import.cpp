@@ -388,9 +388,10 @@ TEST(MeshImport, FaceWithoutVerticesIsRefused) {
 }
 
 // fuzz_mesh_import found it: "vertex 0.1pmx -0.02 -0.1" in an ASCII STL threw from inside
-// assimp's reader, which leaked the mesh and node it was filling (LeakSanitizer); the numbers
-// after "vertex" and "normal" are now checked first and the file refused naming the line
-TEST(MeshImport, AsciiStlValueThatIsNoNumberIsRefused) {
+// assimp's reader, which leaked the mesh and node it was filling (LeakSanitizer), and so did
+// a facet of two vertices; the file is now walked by STL's grammar first and refused naming
+// the line
+TEST(MeshImport, AsciiStlOffItsGrammarIsRefused) {
   const std::string good = fileBytes(assetPath("tissue_slab.stl"));
   const size_t at = good.find("vertex 0.1 -0.02 -0.1");
   ASSERT_NE(at, std::string::npos);
@@ -405,12 +406,31 @@ TEST(MeshImport, AsciiStlValueThatIsNoNumberIsRefused) {
       else loadTriangleMesh(path);
       ADD_FAILURE() << "a vertex that is no number was taken";
     } catch (const mpm::Error& e) {
-      EXPECT_NE(std::string(e.what()).find("STL line " + std::to_string(line) + ": '0.1pmx' after 'vertex' is no number"),
+      EXPECT_NE(std::string(e.what()).find("STL line " + std::to_string(line) +
+                                           ": a number (1 of 3 after 'vertex') expected, '0.1pmx' found"),
                 std::string::npos)
           << e.what();
     }
   }
   EXPECT_EQ(loadTriangleMeshFromMemory(good.data(), good.size(), "stl").triangleCount(), 12u);
+  // found next: a facet of two vertices (assimp threw "Invalid number of vertices" and leaked)
+  bad = good;
+  bad.replace(at, 6, "vepmx ");
+  auto message = [&] {
+    try {
+      loadTriangleMeshFromMemory(bad.data(), bad.size(), "stl");
+    } catch (const mpm::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message().find("STL line " + std::to_string(line) + ": 'vertex' expected, 'vepmx' found"), std::string::npos)
+      << message();
+  bad = "solid s\n  facet normal 0 0 1\n    outer loop\n      vertex 0 0 0\n      vertex 1 0 0\n      vertex 0 1 0\n"
+        "    endloop\n  endfacet\nendsolid s\n";
+  EXPECT_EQ(loadTriangleMeshFromMemory(bad.data(), bad.size(), "stl").triangleCount(), 1u);
+  bad.replace(bad.find("facet normal 0 0 1"), 18, "facet");
+  EXPECT_NE(message().find("STL line 3: 'normal' expected, 'outer' found"), std::string::npos) << message();
   std::remove(path.c_str());
 }
 

@@ -350,44 +350,86 @@ void checkPly(const uint8_t* data, size_t size, const std::string& what) {
   }
 }
 
-/// assimp's ASCII STL reader reads three numbers after each "vertex" and "normal", and
-/// when one is no number it throws from inside the reader, which then leaks the mesh and
-/// node it was filling (fuzz_mesh_import found "vertex 0.1pmx -0.02 -0.1"). An STL that
-/// assimp reads as text (it begins with "solid" and is not a binary STL by its size; its test
-/// for bytes past ASCII compares a signed char with 127, so it never finds one) has those
-/// numbers checked first, and the file is refused naming the line; other files pass.
+/// assimp's ASCII STL reader throws from inside itself, leaking the mesh and node it was
+/// filling, on a number that is none ("vertex 0.1pmx -0.02 -0.1") and on a facet of fewer
+/// than three vertices ("STL: Invalid number of vertices"), both found by fuzz_mesh_import,
+/// and on a facet without its normal or a name of 1024 characters. An STL that assimp reads
+/// as text (it begins with "solid" and is not a binary STL by its size; assimp's test for
+/// bytes past ASCII compares a signed char with 127, so it never finds one) is first walked
+/// by the format's grammar: solid NAME, then facets of "facet normal X Y Z", "outer loop",
+/// three "vertex X Y Z", "endloop", "endfacet", then "endsolid NAME" (another solid may
+/// follow); a file that strays from it is refused naming the line. Other files pass.
 void checkAsciiStl(const uint8_t* data, size_t size, const std::string& what) {
   if (size >= 84) {
     uint32_t faces;
     std::memcpy(&faces, data + 80, 4);
     if (uint64_t(faces) * 50 + 84 == size) return;  // binary, by assimp's test
   }
-  size_t at = 0;
-  while (at < size && (data[at] == ' ' || data[at] == '\t' || data[at] == '\r' || data[at] == '\n')) ++at;
-  if (at + 5 >= size || std::memcmp(data + at, "solid", 5) != 0) return;
+  size_t start = 0;
+  while (start < size && (data[start] == ' ' || data[start] == '\t' || data[start] == '\r' || data[start] == '\n'))
+    ++start;
+  if (start + 5 >= size || std::memcmp(data + start, "solid", 5) != 0) return;
   // every word, with the line it is on
+  struct Word {
+    std::string text;
+    int line;
+  };
+  std::vector<Word> words;
   int line = 1;
-  std::vector<std::pair<std::string, int>> words;
   for (size_t i = 0; i < size;) {
     const uint8_t c = data[i];
-    if (c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == 0) {
+    if (c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v' || c == 0) {
       line += c == '\n';
       ++i;
       continue;
     }
     const size_t from = i;
-    while (i < size && data[i] != ' ' && data[i] != '\t' && data[i] != '\r' && data[i] != '\n' && data[i] != 0) ++i;
-    words.emplace_back(std::string(reinterpret_cast<const char*>(data) + from, i - from), line);
+    while (i < size && data[i] != ' ' && data[i] != '\t' && data[i] != '\r' && data[i] != '\n' && data[i] != '\f' &&
+           data[i] != '\v' && data[i] != 0)
+      ++i;
+    words.push_back({std::string(reinterpret_cast<const char*>(data) + from, i - from), line});
   }
-  for (size_t w = 0; w < words.size(); ++w) {
-    if (words[w].first != "vertex" && words[w].first != "normal") continue;
-    for (size_t k = 1; k <= 3; ++k)
-      if (w + k >= words.size() || !plyNumber(words[w + k].first, false))
-        throw mpm::Error("loadTriangleMesh: " + what + ": STL line " +
-                         std::to_string(w + k < words.size() ? words[w + k].second : words[w].second) + ": '" +
-                         (w + k < words.size() ? printable(words[w + k].first) : "") + "' after '" + words[w].first +
-                         "' is no number");
-    w += 3;
+  size_t w = 0;
+  auto refuse = [&](const std::string& expected) {
+    const std::string found = w < words.size() ? "'" + printable(words[w].text) + "'" : "the end of the file";
+    throw mpm::Error("loadTriangleMesh: " + what + ": STL line " +
+                     std::to_string(w < words.size() ? words[w].line : line) + ": " + expected + " expected, " + found +
+                     " found");
+  };
+  auto expect = [&](const char* word) {
+    if (w >= words.size() || words[w].text != word) refuse(std::string("'") + word + "'");
+    ++w;
+  };
+  auto numbers = [&](const char* after) {
+    for (int k = 0; k < 3; ++k, ++w)
+      if (w >= words.size() || !plyNumber(words[w].text, false))
+        refuse(std::string("a number (") + std::to_string(k + 1) + " of 3 after '" + after + "')");
+  };
+  auto restOfLine = [&](int of) {
+    size_t length = 0;
+    for (; w < words.size() && words[w].line == of; ++w) length += words[w].text.size() + 1;
+    return length;
+  };
+  while (w < words.size() && words[w].text == "solid") {
+    const int at = words[w++].line;
+    if (restOfLine(at) >= 1024) throw mpm::Error("loadTriangleMesh: " + what + ": STL line " + std::to_string(at) +
+                                                 ": the solid's name is 1024 characters or more");
+    while (w < words.size() && words[w].text == "facet") {
+      ++w;
+      expect("normal");
+      numbers("normal");
+      expect("outer");
+      expect("loop");
+      for (int k = 0; k < 3; ++k) {
+        expect("vertex");
+        numbers("vertex");
+      }
+      expect("endloop");
+      expect("endfacet");
+    }
+    if (w == words.size()) return;  // no endsolid: assimp warns and keeps what it read
+    expect("endsolid");
+    restOfLine(words[w - 1].line);
   }
 }
 
