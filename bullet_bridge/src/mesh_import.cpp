@@ -433,6 +433,37 @@ void checkAsciiStl(const uint8_t* data, size_t size, const std::string& what) {
   }
 }
 
+/// assimp's glTF reader decodes a buffer's "data:...;base64," URI and throws from inside
+/// itself on a character that is no base64, leaking the buffer it was filling
+/// (fuzz_mesh_import found one). Every base64 data URI of a .gltf or .glb is checked first:
+/// the alphabet A-Z a-z 0-9 + /, at most two '=' at its end, a length a multiple of 4;
+/// refused naming the URI's position in the file.
+void checkGltfDataUris(const uint8_t* data, size_t size, const std::string& what) {
+  static const char kMarker[] = ";base64,";
+  const uint8_t* end = data + size;
+  for (const uint8_t* at = data; (at = std::search(at, end, kMarker, kMarker + 8)) != end;) {
+    at += 8;
+    const uint8_t* stop = at;
+    size_t padding = 0;
+    for (; stop != end && *stop != '"'; ++stop) {
+      const uint8_t c = *stop;
+      const bool letter = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '+' || c == '/';
+      if (c == '=' && padding < 2) {
+        ++padding;
+        continue;
+      }
+      if (!letter || padding > 0)
+        throw mpm::Error("loadTriangleMesh: " + what + ": the base64 data URI at byte " + std::to_string(at - data) +
+                         " holds '" + printable(std::string(1, (char)c)) + "' at byte " + std::to_string(stop - data) +
+                         ", no base64 character");
+    }
+    if ((stop - at) % 4 != 0)
+      throw mpm::Error("loadTriangleMesh: " + what + ": the base64 data URI at byte " + std::to_string(at - data) + " is " +
+                       std::to_string(stop - at) + " characters long, not a multiple of 4");
+    at = stop;
+  }
+}
+
 /// An assimp file system with no files in it: reading from memory, the bytes given are the
 /// whole input, and nothing else on the disk is read on their say.
 class NoFiles : public Assimp::IOSystem {
@@ -518,20 +549,22 @@ class OwningGImpactMeshShape : private OwnedTriangleArrayHolder, public btGImpac
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
   checkScale(scale);
   {
-    // a PLY's body is checked against its header and an ASCII STL's numbers before assimp
-    // reads them (checkPly, checkAsciiStl)
+    // a PLY's body is checked against its header, an ASCII STL against the grammar and a
+    // glTF's data URIs before assimp reads them (checkPly, checkAsciiStl, checkGltfDataUris)
     std::ifstream in(path, std::ios::binary);
     char magic[3] = {0, 0, 0};
     const bool ply = in.read(magic, 3) && std::memcmp(magic, "ply", 3) == 0;
     std::string extension = path.substr(path.find_last_of("./\\") + 1);
     for (char& c : extension) c = (char)std::tolower((unsigned char)c);
-    const bool stl = path.find_last_of('.') != std::string::npos && extension == "stl";
-    if (ply || stl) {
+    const bool dotted = path.find_last_of('.') != std::string::npos;
+    const bool stl = dotted && extension == "stl", gltf = dotted && (extension == "gltf" || extension == "glb");
+    if (ply || stl || gltf) {
       in.clear();
       in.seekg(0);
       const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
       if (ply) checkPly(bytes.data(), bytes.size(), "'" + path + "'");
       if (stl) checkAsciiStl(bytes.data(), bytes.size(), "'" + path + "'");
+      if (gltf) checkGltfDataUris(bytes.data(), bytes.size(), "'" + path + "'");
     }
   }
   Assimp::Importer importer;
@@ -560,6 +593,7 @@ mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, cons
   std::string lower = formatHint;
   for (char& c : lower) c = (char)std::tolower((unsigned char)c);
   if (lower == "stl") checkAsciiStl(static_cast<const uint8_t*>(data), size, what);
+  if (lower == "gltf" || lower == "glb") checkGltfDataUris(static_cast<const uint8_t*>(data), size, what);
   configure(importer);
   // the bytes are the whole file: a reference to another file finds nothing
   importer.SetIOHandler(new NoFiles);
