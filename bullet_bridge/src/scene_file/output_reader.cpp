@@ -41,6 +41,9 @@ void readOutput(Node* n, LoadedScene::Impl& s) {
   if (!n) return;
   if (n->read("frames", o.frames) && o.frames < 1) fail(n->at("frames"), o.frames, "must be >= 1");
   if (n->read("frameTime", o.frameTime) && !(o.frameTime > 0.f)) fail(n->at("frameTime"), o.frameTime, "must be > 0");
+  // a frame is a whole number of Bullet ticks (at least one); a bound keeps the count an int
+  if (!(o.frameTime / s.tick <= 1e6f))
+    fail(n->at("frameTime"), o.frameTime, "more than 1e6 Bullet ticks (world.tick) per frame");
   if (n->read("pngEvery", o.pngEvery) && o.pngEvery < 0) fail(n->at("pngEvery"), o.pngEvery, "must be >= 0 (0: none)");
   if (n->has("camera")) {
     Node c = n->object("camera");
