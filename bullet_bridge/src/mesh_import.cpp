@@ -238,7 +238,7 @@ void checkPly(const uint8_t* data, size_t size, const std::string& what) {
   size_t at = 0;
   for (int line = 1;; ++line) {
     const size_t end = std::find(data + at, data + size, '\n') - data;
-    if (end == size) return;  // no end of the header: assimp refuses the file itself
+    if (end == size) refuse("header: no 'end_header' line (the file ends at header line " + std::to_string(line) + ")");
     std::string text(reinterpret_cast<const char*>(data) + at, end - at);
     at = end + 1;
     if (!text.empty() && text.back() == '\r') text.pop_back();
