@@ -436,6 +436,12 @@ TEST(MeshImport, AsciiStlOffItsGrammarIsRefused) {
   EXPECT_EQ(loadTriangleMeshFromMemory(bad.data(), bad.size(), "stl").triangleCount(), 1u);
   bad.replace(bad.find("facet normal 0 0 1"), 18, "facet");
   EXPECT_NE(message().find("STL line 3: 'normal' expected, 'outer' found"), std::string::npos) << message();
+  // and then "solid#name": assimp takes any word that begins with "solid" for the keyword
+  bad = good;
+  bad.replace(bad.find("solid ") + 5, 1, "#");
+  bad.replace(at, 6, "vepmx ");
+  EXPECT_NE(message().find("STL line " + std::to_string(line) + ": 'vertex' expected, 'vepmx' found"), std::string::npos)
+      << message();
   std::remove(path.c_str());
 }
 

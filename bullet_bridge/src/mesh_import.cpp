@@ -410,9 +410,10 @@ void checkAsciiStl(const uint8_t* data, size_t size, const std::string& what) {
     for (; w < words.size() && words[w].line == of; ++w) length += words[w].text.size() + 1;
     return length;
   };
-  while (w < words.size() && words[w].text == "solid") {
-    const int at = words[w++].line;
-    if (restOfLine(at) >= 1024) throw mpm::Error("loadTriangleMesh: " + what + ": STL line " + std::to_string(at) +
+  // assimp takes a word that begins with "solid" (or "endsolid") for the keyword and its name
+  while (w < words.size() && words[w].text.compare(0, 5, "solid") == 0) {
+    const int at = words[w].line;
+    if (restOfLine(at) >= 1024 + 6) throw mpm::Error("loadTriangleMesh: " + what + ": STL line " + std::to_string(at) +
                                                  ": the solid's name is 1024 characters or more");
     while (w < words.size() && words[w].text == "facet") {
       ++w;
@@ -428,8 +429,8 @@ void checkAsciiStl(const uint8_t* data, size_t size, const std::string& what) {
       expect("endfacet");
     }
     if (w == words.size()) return;  // no endsolid: assimp warns and keeps what it read
-    expect("endsolid");
-    restOfLine(words[w - 1].line);
+    if (words[w].text.compare(0, 8, "endsolid") != 0) refuse("'facet' or 'endsolid'");
+    restOfLine(words[w].line);
   }
 }
 
