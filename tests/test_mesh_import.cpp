@@ -337,6 +337,13 @@ TEST(MeshImport, BinaryPlyEndingEarlyIsRefused) {
   const std::string cut = small.substr(0, small.find("element vertex")) + "comment cut off";
   const std::string noEnd = message([&] { loadTriangleMeshFromMemory(cut.data(), cut.size(), "ply"); });
   EXPECT_NE(noEnd.find("PLY header: no 'end_header' line (the file ends at header line 3)"), std::string::npos) << noEnd;
+  // and a format that is none of PLY's (read as if it were one: a segmentation fault)
+  std::string otherFormat = small;
+  otherFormat.replace(otherFormat.find("binary_little_endian"), 20, "binary_li");
+  const std::string badFormat =
+      message([&] { loadTriangleMeshFromMemory(otherFormat.data(), otherFormat.size(), "ply"); });
+  EXPECT_NE(badFormat.find("PLY header line 2 'format binary_li 1.0': the format is none of"), std::string::npos)
+      << badFormat;
   small.replace(small.size() - 13, 1, 1, char(3));  // the face as promised: read
   EXPECT_EQ(loadTriangleMeshFromMemory(small.data(), small.size(), "ply").triangleCount(), 1u);
   std::remove(path.c_str());

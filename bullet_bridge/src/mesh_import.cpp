@@ -234,7 +234,7 @@ void checkPly(const uint8_t* data, size_t size, const std::string& what) {
     return 0;
   };
   std::vector<Element> elements;
-  bool bigEndian = false, ascii = false;
+  bool bigEndian = false, ascii = false, formatSeen = false;
   size_t at = 0;
   for (int line = 1;; ++line) {
     const size_t end = std::find(data + at, data + size, '\n') - data;
@@ -248,7 +248,8 @@ void checkPly(const uint8_t* data, size_t size, const std::string& what) {
     if (words[0] == "format") {
       if (words.size() < 2) refuse(where + ": no format");
       if (words[1] != "ascii" && words[1] != "binary_little_endian" && words[1] != "binary_big_endian")
-        return;  // assimp refuses it
+        refuse(where + ": the format is none of ascii, binary_little_endian, binary_big_endian");
+      formatSeen = true;
       ascii = words[1] == "ascii";
       bigEndian = words[1] == "binary_big_endian";
     } else if (words[0] == "element") {
@@ -269,6 +270,7 @@ void checkPly(const uint8_t* data, size_t size, const std::string& what) {
       }
       elements.back().properties.push_back(p);
     } else if (words[0] == "end_header" && words.size() == 1) {
+      if (!formatSeen) refuse(where + ": no format line before it");
       break;
     } else {
       refuse(where + ": not a header line");
