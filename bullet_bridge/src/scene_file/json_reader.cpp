@@ -1,6 +1,8 @@
 #include "scene_file/json_reader.h"
 
 #include <cmath>
+#include <cstdlib>
+#include <sstream>
 #include <limits>
 
 namespace mpm::bullet::scene_file {
@@ -14,6 +16,17 @@ std::string show(const Json& value) {
 
 void fail(const std::string& path, const Json& value, const std::string& why) {
   throw InvalidArgument(path, show(value), why);
+}
+
+void fail(const std::string& path, float value, const std::string& why) {
+  for (int digits = 6; digits <= 9; ++digits) {  // as mpm::validate::show
+    std::ostringstream s;
+    s.precision(digits);
+    s << value;
+    if (std::strtof(s.str().c_str(), nullptr) == value || !std::isfinite(value) || digits == 9)
+      throw InvalidArgument(path, s.str(), why);
+  }
+  throw InvalidArgument(path, "?", why);
 }
 
 void failMissing(const std::string& path, const std::string& why) { throw InvalidArgument(path, "missing", why); }

@@ -22,6 +22,8 @@ using Json = nlohmann::json;
 /// The value as the error shows it: its JSON text, cut short when long.
 std::string show(const Json& value);
 [[noreturn]] void fail(const std::string& path, const Json& value, const std::string& why);
+/// A number already read, shown as the library shows it (the shortest text that reads back).
+[[noreturn]] void fail(const std::string& path, float value, const std::string& why);
 [[noreturn]] void failMissing(const std::string& path, const std::string& why = "required");
 /// Rethrows a library error whose field starts with `cppPrefix` (e.g. "ParticleObjectDesc")
 /// with that prefix replaced by the JSON path (e.g. "objects[1]"), so the message names the
