@@ -467,6 +467,60 @@ void checkGltfDataUris(const uint8_t* data, size_t size, const std::string& what
   }
 }
 
+/// assimp's OBJ reader checks a face's vertex, texture and normal indices only once it builds
+/// the mesh, and throws from there, leaking the mesh (fuzz_mesh_import found "vertex index
+/// out of range"). Every index of an "f", "l" or "p" line is checked first: an integer, not
+/// 0, counting from 1 up to the file's number of "v" (and "vt", "vn") lines, or back from
+/// -1 over those read so far; refused naming the line.
+void checkObjIndices(const uint8_t* data, size_t size, const std::string& what) {
+  struct Reference {
+    long long index;
+    int kind;  // 0 v, 1 vt, 2 vn
+    int line;
+  };
+  std::vector<Reference> references;
+  long long count[3] = {0, 0, 0};
+  int line = 0;
+  for (size_t at = 0; at < size;) {
+    const size_t end = std::find(data + at, data + size, '\n') - data;
+    const std::string text(reinterpret_cast<const char*>(data) + at, end - at);
+    at = end + 1;
+    ++line;
+    const std::vector<std::string> words = wordsOf(text);
+    if (words.empty()) continue;
+    const std::string& key = words[0];
+    if (key == "v" || key == "vt" || key == "vn") ++count[key == "v" ? 0 : key == "vt" ? 1 : 2];
+    if (key != "f" && key != "l" && key != "p") continue;
+    for (size_t w = 1; w < words.size(); ++w) {
+      std::string word = words[w];
+      if (!word.empty() && word.back() == '\r') word.pop_back();
+      if (word.empty()) continue;
+      size_t from = 0;
+      for (int kind = 0; kind < 3 && from <= word.size(); ++kind) {
+        const size_t slash = std::min(word.find('/', from), word.size());
+        const std::string part = word.substr(from, slash - from);
+        from = slash + 1;
+        if (part.empty() && kind > 0) continue;  // "1//3": no texture index
+        if (!plyNumber(part, true) || part.size() > 12)
+          throw mpm::Error("loadTriangleMesh: " + what + ": OBJ line " + std::to_string(line) + ": '" + printable(word) +
+                           "' is no vertex reference");
+        const long long index = std::stoll(part);
+        if (index == 0 || (index < 0 && -index > count[kind]))
+          throw mpm::Error("loadTriangleMesh: " + what + ": OBJ line " + std::to_string(line) + ": index " + part +
+                           " in '" + printable(word) + "' names no " + (kind == 0 ? "vertex" : kind == 1 ? "texture coordinate" : "normal"));
+        if (index > 0) references.push_back({index, kind, line});
+        if (slash == word.size()) break;
+      }
+    }
+  }
+  for (const Reference& r : references)
+    if (r.index > count[r.kind])
+      throw mpm::Error("loadTriangleMesh: " + what + ": OBJ line " + std::to_string(r.line) + ": index " +
+                       std::to_string(r.index) + " names no " +
+                       (r.kind == 0 ? "vertex" : r.kind == 1 ? "texture coordinate" : "normal") + " (the file has " +
+                       std::to_string(count[r.kind]) + ")");
+}
+
 /// An assimp file system with no files in it: reading from memory, the bytes given are the
 /// whole input, and nothing else on the disk is read on their say.
 class NoFiles : public Assimp::IOSystem {
@@ -552,8 +606,9 @@ class OwningGImpactMeshShape : private OwnedTriangleArrayHolder, public btGImpac
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
   checkScale(scale);
   {
-    // a PLY's body is checked against its header, an ASCII STL against the grammar and a
-    // glTF's data URIs before assimp reads them (checkPly, checkAsciiStl, checkGltfDataUris)
+    // a PLY's body is checked against its header, an ASCII STL against the grammar, a
+    // glTF's data URIs and an OBJ's indices before assimp reads them (checkPly,
+    // checkAsciiStl, checkGltfDataUris, checkObjIndices)
     std::ifstream in(path, std::ios::binary);
     char magic[3] = {0, 0, 0};
     const bool ply = in.read(magic, 3) && std::memcmp(magic, "ply", 3) == 0;
@@ -561,13 +616,15 @@ mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
     for (char& c : extension) c = (char)std::tolower((unsigned char)c);
     const bool dotted = path.find_last_of('.') != std::string::npos;
     const bool stl = dotted && extension == "stl", gltf = dotted && (extension == "gltf" || extension == "glb");
-    if (ply || stl || gltf) {
+    const bool obj = dotted && extension == "obj";
+    if (ply || stl || gltf || obj) {
       in.clear();
       in.seekg(0);
       const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
       if (ply) checkPly(bytes.data(), bytes.size(), "'" + path + "'");
       if (stl) checkAsciiStl(bytes.data(), bytes.size(), "'" + path + "'");
       if (gltf) checkGltfDataUris(bytes.data(), bytes.size(), "'" + path + "'");
+      if (obj) checkObjIndices(bytes.data(), bytes.size(), "'" + path + "'");
     }
   }
   Assimp::Importer importer;
@@ -597,6 +654,7 @@ mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, cons
   for (char& c : lower) c = (char)std::tolower((unsigned char)c);
   if (lower == "stl") checkAsciiStl(static_cast<const uint8_t*>(data), size, what);
   if (lower == "gltf" || lower == "glb") checkGltfDataUris(static_cast<const uint8_t*>(data), size, what);
+  if (lower == "obj") checkObjIndices(static_cast<const uint8_t*>(data), size, what);
   configure(importer);
   // the bytes are the whole file: a reference to another file finds nothing
   importer.SetIOHandler(new NoFiles);
