@@ -169,6 +169,7 @@ void readBody(Node n, LoadedScene::Impl& s) {
       rethrowAt(e, "NeedleDriveLimits", n.at("motion") + ".limits");
     }
   }
+  if (const Json* c = n.get("color")) body->color = readColor(*c, n.at("color"));
   body->coupled = true;
   n.read("coupled", body->coupled);
   CouplingOptions options;

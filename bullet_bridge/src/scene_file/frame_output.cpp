@@ -44,6 +44,29 @@ void LoadedScene::writePng(const std::string& path) const {
       if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
     renderer.addParticles(shown, radius, obj.color);
   }
+  for (const auto& b : s.bodies) {  // a body given a colour: a lattice of points inside its box or sphere
+    if (!b->color) continue;
+    const btCollisionShape* shape = b->shape.get();
+    btVector3 lo, hi;
+    shape->getAabb(btTransform::getIdentity(), lo, hi);
+    const bool sphere = shape->getShapeType() == SPHERE_SHAPE_PROXYTYPE;
+    if (!sphere && shape->getShapeType() != BOX_SHAPE_PROXYTYPE) continue;
+    if (!sphere) {  // Bullet's box bounds include its margin
+      const btVector3 h = static_cast<const btBoxShape*>(shape)->getHalfExtentsWithMargin();
+      lo = -h;
+      hi = h;
+    }
+    const btTransform t = b->body->getCenterOfMassTransform();
+    const btVector3 step = (hi - lo) / 8;
+    std::vector<Vec3f> points;
+    for (int i = 0; i < 8; ++i)
+      for (int j = 0; j < 8; ++j)
+        for (int k = 0; k < 8; ++k) {
+          const btVector3 p = lo + step * btVector3(i + 0.5f, j + 0.5f, k + 0.5f);
+          if (!sphere || p.length() <= hi.x()) points.push_back(vec(t * p));
+        }
+    renderer.addParticles(points, 0.6f * step.x(), *b->color);
+  }
   const float wire = 0.2f * radius;
   for (const Needle& n : s.needles) {
     std::vector<btVector3> arc;

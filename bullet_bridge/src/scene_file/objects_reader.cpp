@@ -32,6 +32,8 @@ std::shared_ptr<const SignedDistanceGrid> readMesh(Node n, const LoadedScene::Im
   }
 }
 
+}  // namespace
+
 io::Rgb readColor(const Json& j, const std::string& path) {
   if (!j.is_array() || j.size() != 3) fail(path, j, "must be an array of 3 integers in [0, 255]");
   int c[3];
@@ -41,8 +43,6 @@ io::Rgb readColor(const Json& j, const std::string& path) {
   }
   return {(uint8_t)c[0], (uint8_t)c[1], (uint8_t)c[2]};
 }
-
-}  // namespace
 
 void readObjects(const Json& objects, LoadedScene::Impl& s) {
   for (size_t i = 0; i < objects.size(); ++i) {

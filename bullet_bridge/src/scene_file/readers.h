@@ -29,6 +29,7 @@ struct Body {
   bool coupled = false;
   std::optional<Keyframes> script;
   std::unique_ptr<NeedleDriver> driver;  ///< a script applied through forces
+  std::optional<io::Rgb> color;          ///< drawn in the pictures (box and sphere shapes)
   btVector3 frameImpulse{0, 0, 0};       ///< what the tissue gave it over the frame (shape, slicer, needle)
 };
 
@@ -115,6 +116,7 @@ void readSlicers(const Json& slicers, LoadedScene::Impl& s);
 void readNeedles(const Json& needles, LoadedScene::Impl& s);
 void readThreads(const Json& threads, LoadedScene::Impl& s);
 void readOutput(Node* output, LoadedScene::Impl& s);
+io::Rgb readColor(const Json& color, const std::string& path);
 /// A file named in the scene, relative to its folder; refused naming `path` when missing.
 std::string resolveFile(const LoadedScene::Impl& s, const Json& name, const std::string& path);
 
