@@ -312,3 +312,21 @@ TEST(SceneFileCheckpoint, ASceneWithNeedlesRefusesCheckpointsWithTheCouplersReas
 }
 
 }  // namespace
+
+namespace {
+
+TEST(SceneFile, TheReadmeExampleLoads) {
+  // the first JSON block of the README's "Scene files and mpm_run", verbatim
+  const std::string readme = readText(mpm::test::sourcePath("README.md"));
+  const size_t section = readme.find("### Scene files and `mpm_run`");
+  ASSERT_NE(section, std::string::npos);
+  const size_t begin = readme.find("```json\n", section), end = readme.find("\n```", begin + 8);
+  ASSERT_NE(begin, std::string::npos);
+  auto loaded = LoadedScene::fromString(readme.substr(begin + 8, end - begin - 8), ".",
+                                        R"({"settings": {"dx": 0.02, "cpuThreads": 1}})");
+  EXPECT_GT(loaded->scene().particleCount(), 0u);
+  EXPECT_NE(loaded->body("box"), nullptr);
+  EXPECT_EQ(loaded->csvHeader(), "time_s,bodies.box.position_x,bodies.box.position_y,bodies.box.position_z");
+}
+
+}  // namespace
