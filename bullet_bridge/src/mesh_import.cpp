@@ -154,6 +154,16 @@ mpm::TriangleMesh collectTriangles(const Assimp::Importer& importer, const aiSce
   return mesh;
 }
 
+/// assimp's text readers take a NUL byte for the end of the file, the checks here do not:
+/// a text format's file holding one is refused (fuzz_mesh_import found an ASCII STL cut
+/// short by NULs inside a vertex, which assimp's reader threw on and leaked its mesh).
+void refuseNul(const uint8_t* data, size_t size, const std::string& what, const char* format) {
+  const uint8_t* nul = std::find(data, data + size, 0);
+  if (nul != data + size)
+    throw mpm::Error("loadTriangleMesh: " + what + ": a NUL byte at byte " + std::to_string(nul - data) + " of an " +
+                     format + " file");
+}
+
 /// Is `word` a number assimp's PLY reader parses whole: [+-] digits [. digits] [e [+-] digits]
 /// (or the fraction alone); an integer type's without a fraction or exponent.
 bool plyNumber(const std::string& word, bool integer) {
@@ -277,6 +287,7 @@ void checkPly(const uint8_t* data, size_t size, const std::string& what) {
     }
   }
   if (ascii) {
+    refuseNul(data, size, what, "ASCII PLY");
     // one line per item, as many numbers on it as its properties (and lists) say
     int line = 0;
     for (const Element& e : elements)
@@ -371,6 +382,7 @@ void checkAsciiStl(const uint8_t* data, size_t size, const std::string& what) {
   while (start < size && (data[start] == ' ' || data[start] == '\t' || data[start] == '\r' || data[start] == '\n'))
     ++start;
   if (start + 5 >= size || std::memcmp(data + start, "solid", 5) != 0) return;
+  refuseNul(data, size, what, "ASCII STL");
   // every word, with the line it is on
   struct Word {
     std::string text;
@@ -478,6 +490,7 @@ void checkObjIndices(const uint8_t* data, size_t size, const std::string& what) 
     int kind;  // 0 v, 1 vt, 2 vn
     int line;
   };
+  refuseNul(data, size, what, "OBJ text");
   std::vector<Reference> references;
   long long count[3] = {0, 0, 0};
   int line = 0;
