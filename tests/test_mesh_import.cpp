@@ -419,7 +419,7 @@ TEST(MeshImport, AsciiStlOffItsGrammarIsRefused) {
       ADD_FAILURE() << "a vertex that is no number was taken";
     } catch (const mpm::Error& e) {
       EXPECT_NE(std::string(e.what()).find("STL line " + std::to_string(line) +
-                                           ": a number (1 of 3 after 'vertex') expected, '0.1pmx' found"),
+                                           ": a number (1 of 3 after 'vertex', on its line) expected, '0.1pmx' found"),
                 std::string::npos)
           << e.what();
     }
@@ -437,6 +437,13 @@ TEST(MeshImport, AsciiStlOffItsGrammarIsRefused) {
     return std::string("no error");
   };
   EXPECT_NE(message().find("STL line " + std::to_string(line) + ": 'vertex' expected, 'vepmx' found"), std::string::npos)
+      << message();
+  // and then a vertex's third number on the next line: assimp's reader does not look there
+  bad = good;
+  bad.replace(at + 16, 1, "\n");
+  EXPECT_NE(message().find("STL line " + std::to_string(line + 1) + ": a number (3 of 3 after 'vertex', on its line) "
+                           "expected, '-0.1' found"),
+            std::string::npos)
       << message();
   // and then NUL bytes inside a vertex: assimp's reader took the first for the end
   bad = good;

@@ -414,10 +414,12 @@ void checkAsciiStl(const uint8_t* data, size_t size, const std::string& what) {
     if (w >= words.size() || words[w].text != word) refuse(std::string("'") + word + "'");
     ++w;
   };
+  // the three numbers on the keyword's line (assimp's reader does not look past its end)
   auto numbers = [&](const char* after) {
+    const int on = words[w - 1].line;
     for (int k = 0; k < 3; ++k, ++w)
-      if (w >= words.size() || !plyNumber(words[w].text, false))
-        refuse(std::string("a number (") + std::to_string(k + 1) + " of 3 after '" + after + "')");
+      if (w >= words.size() || words[w].line != on || !plyNumber(words[w].text, false))
+        refuse(std::string("a number (") + std::to_string(k + 1) + " of 3 after '" + after + "', on its line)");
   };
   auto restOfLine = [&](int of) {
     size_t length = 0;
