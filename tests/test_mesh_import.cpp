@@ -445,6 +445,16 @@ TEST(MeshImport, AsciiStlOffItsGrammarIsRefused) {
                            "expected, '-0.1' found"),
             std::string::npos)
       << message();
+  // and then the same read through the hint "glb": assimp's glTF reader does not recognise
+  // it and assimp tries every reader, the STL one among them
+  const std::string glb = message();
+  EXPECT_NE(glb.find("STL line"), std::string::npos) << glb;
+  try {
+    loadTriangleMeshFromMemory(bad.data(), bad.size(), "glb");
+    ADD_FAILURE() << "an STL off its grammar was read as glb";
+  } catch (const mpm::Error& e) {
+    EXPECT_EQ(std::string(e.what()), glb.substr(0, glb.find(" (stl)")) + " (glb)" + glb.substr(glb.find(" (stl)") + 6));
+  }
   // and then NUL bytes inside a vertex: assimp's reader took the first for the end
   bad = good;
   bad.replace(at + 12, 4, std::string(4, '\0'));

@@ -536,6 +536,37 @@ void checkObjIndices(const uint8_t* data, size_t size, const std::string& what) 
                        std::to_string(count[r.kind]) + ")");
 }
 
+/// The checks above, before assimp reads `data` as a file of extension `extension`. assimp
+/// picks its reader by the extension, but when that reader does not recognise the bytes it
+/// tries every reader on them (fuzz_mesh_import found an ASCII STL read through the hint
+/// "glb"): so the checks that look for their own format's signature (PLY, ASCII STL, glTF's
+/// data URIs) run on every file, and the OBJ check, which has no signature, on a file named
+/// .obj or one named .stl, .ply, .gltf or .glb that does not carry that format's signature.
+void checkBeforeAssimp(const uint8_t* data, size_t size, std::string extension, const std::string& what) {
+  for (char& c : extension) c = (char)std::tolower((unsigned char)c);
+  checkPly(data, size, what);
+  checkAsciiStl(data, size, what);
+  checkGltfDataUris(data, size, what);
+  auto startsWith = [&](const char* magic) {
+    const size_t n = std::strlen(magic);
+    return size >= n && std::memcmp(data, magic, n) == 0;
+  };
+  size_t first = 0;
+  while (first < size && std::isspace(data[first])) ++first;
+  bool signed_ = false;
+  if (extension == "ply") signed_ = startsWith("ply");
+  else if (extension == "glb") signed_ = startsWith("glTF");
+  else if (extension == "gltf") signed_ = first < size && data[first] == '{';
+  else if (extension == "stl") {
+    uint32_t faces = 0;
+    if (size >= 84) std::memcpy(&faces, data + 80, 4);
+    signed_ = (size >= 84 && uint64_t(faces) * 50 + 84 == size) ||
+              (first + 5 < size && std::memcmp(data + first, "solid", 5) == 0);
+  }
+  const bool ours = extension == "ply" || extension == "glb" || extension == "gltf" || extension == "stl";
+  if (extension == "obj" || (ours && !signed_)) checkObjIndices(data, size, what);
+}
+
 /// An assimp file system with no files in it: reading from memory, the bytes given are the
 /// whole input, and nothing else on the disk is read on their say.
 class NoFiles : public Assimp::IOSystem {
@@ -621,26 +652,11 @@ class OwningGImpactMeshShape : private OwnedTriangleArrayHolder, public btGImpac
 mpm::TriangleMesh loadTriangleMesh(const std::string& path, float scale) {
   checkScale(scale);
   {
-    // a PLY's body is checked against its header, an ASCII STL against the grammar, a
-    // glTF's data URIs and an OBJ's indices before assimp reads them (checkPly,
-    // checkAsciiStl, checkGltfDataUris, checkObjIndices)
     std::ifstream in(path, std::ios::binary);
-    char magic[3] = {0, 0, 0};
-    const bool ply = in.read(magic, 3) && std::memcmp(magic, "ply", 3) == 0;
-    std::string extension = path.substr(path.find_last_of("./\\") + 1);
-    for (char& c : extension) c = (char)std::tolower((unsigned char)c);
-    const bool dotted = path.find_last_of('.') != std::string::npos;
-    const bool stl = dotted && extension == "stl", gltf = dotted && (extension == "gltf" || extension == "glb");
-    const bool obj = dotted && extension == "obj";
-    if (ply || stl || gltf || obj) {
-      in.clear();
-      in.seekg(0);
-      const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-      if (ply) checkPly(bytes.data(), bytes.size(), "'" + path + "'");
-      if (stl) checkAsciiStl(bytes.data(), bytes.size(), "'" + path + "'");
-      if (gltf) checkGltfDataUris(bytes.data(), bytes.size(), "'" + path + "'");
-      if (obj) checkObjIndices(bytes.data(), bytes.size(), "'" + path + "'");
-    }
+    const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t dot = path.find_last_of('.'), slash = path.find_last_of("/\\");
+    const bool dotted = dot != std::string::npos && (slash == std::string::npos || dot > slash);
+    if (in || !bytes.empty()) checkBeforeAssimp(bytes.data(), bytes.size(), dotted ? path.substr(dot + 1) : "", "'" + path + "'");
   }
   Assimp::Importer importer;
   configure(importer);
@@ -664,12 +680,7 @@ mpm::TriangleMesh loadTriangleMeshFromMemory(const void* data, size_t size, cons
     throw mpm::InvalidArgument("formatHint", "'" + formatHint + "'",
                                "must be the extension of a mesh format assimp reads (obj, stl, ply, gltf, glb, ...)");
   const std::string what = name + " (" + formatHint + ")";
-  checkPly(static_cast<const uint8_t*>(data), size, what);
-  std::string lower = formatHint;
-  for (char& c : lower) c = (char)std::tolower((unsigned char)c);
-  if (lower == "stl") checkAsciiStl(static_cast<const uint8_t*>(data), size, what);
-  if (lower == "gltf" || lower == "glb") checkGltfDataUris(static_cast<const uint8_t*>(data), size, what);
-  if (lower == "obj") checkObjIndices(static_cast<const uint8_t*>(data), size, what);
+  checkBeforeAssimp(static_cast<const uint8_t*>(data), size, formatHint, what);
   configure(importer);
   // the bytes are the whole file: a reference to another file finds nothing
   importer.SetIOHandler(new NoFiles);
