@@ -366,6 +366,16 @@ TEST(MeshImport, AsciiPlyValueThatIsNoNumberIsRefused) {
     }
   };
   EXPECT_EQ(message("0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), "1 triangles");
+  // found next: "plyply" for the first line, which assimp's reader takes for a PLY's
+  {
+    const std::string file = "ply" + header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    try {
+      loadTriangleMeshFromMemory(file.data(), file.size(), "ply");
+      ADD_FAILURE() << "a PLY whose first line is plyply was read";
+    } catch (const mpm::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("PLY header line 1 'plyply': not a header line"), std::string::npos) << e.what();
+    }
+  }
   EXPECT_EQ(message("0 0 0\r\n1.5e-1 0 0\r\n-.5 +1 0\r\n3 0 1 2\r\n"), "1 triangles");
   const std::pair<const char*, const char*> bad[] = {
       {"0 0 0\n1x 0 0\n0 1 0\n3 0 1 2\n", "element 'vertex' 1 of 3 (body line 2): '1x' is no number"},

@@ -218,7 +218,8 @@ std::vector<std::string> wordsOf(const std::string& text) {
 /// refuses a file that does not hold what its header says, naming the element and item, or
 /// a header line it cannot follow; files that are not PLY pass unchecked.
 void checkPly(const uint8_t* data, size_t size, const std::string& what) {
-  if (size < 4 || std::memcmp(data, "ply", 3) != 0 || (data[3] != '\n' && data[3] != '\r')) return;
+  // assimp's reader takes any file that begins with "ply" ("plyply" too: found by the fuzzer)
+  if (size < 3 || std::memcmp(data, "ply", 3) != 0) return;
   auto refuse = [&](const std::string& why) { throw mpm::Error("loadTriangleMesh: " + what + ": PLY " + why); };
   struct Property {
     int size = 0, countSize = 0;  // countSize > 0: a list whose length is that wide
