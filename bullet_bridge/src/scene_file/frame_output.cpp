@@ -1,5 +1,6 @@
 // A frame's picture (the tissue, needles and threads through the splat renderer) and its
 // CSV row.
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -13,10 +14,11 @@ namespace {
 
 Vec3f vec(const btVector3& v) { return {(float)v.x(), (float)v.y(), (float)v.z()}; }
 
-/// Points along a polyline `spacing` apart, to draw it as splats.
+/// Points along a polyline `spacing` apart (at most 256 per segment: a huge tool in a
+/// scene file must not make the picture take forever), to draw it as splats.
 void addPolyline(const std::vector<btVector3>& p, float spacing, std::vector<Vec3f>& out) {
   for (size_t k = 0; k + 1 < p.size(); ++k) {
-    const int n = std::max(1, (int)std::ceil((p[k + 1] - p[k]).length() / spacing));
+    const int n = (int)std::clamp(std::ceil((p[k + 1] - p[k]).length() / spacing), 1.f, 256.f);
     for (int i = 0; i < n; ++i) out.push_back(vec(p[k] + (p[k + 1] - p[k]) * ((float)i / n)));
   }
   if (!p.empty()) out.push_back(vec(p.back()));
@@ -88,10 +90,11 @@ void LoadedScene::writePng(const std::string& path) const {
     const btTransform frame(btQuaternion(blade.pose.rotation.x, blade.pose.rotation.y, blade.pose.rotation.z,
                                          blade.pose.rotation.w),
                             btVector3(blade.pose.position.x, blade.pose.position.y, blade.pose.position.z));
-    std::vector<Vec3f> steel;
-    for (float a = -d.halfLength; a <= d.halfLength; a += 2.f * wire)
-      for (float b = 0.f; b <= d.width; b += 2.f * wire) steel.push_back(vec(frame * btVector3(a, b, 0)));
-    renderer.addParticles(steel, 2.f * wire, {170, 175, 190});
+    std::vector<Vec3f> steel;  // as the cutting demo draws it: 31 x 41 points
+    for (int i = 0; i <= 30; ++i)
+      for (int j = 0; j <= 40; ++j)
+        steel.push_back(vec(frame * btVector3(d.halfLength * (i / 15.f - 1.f), d.width * j / 40.f, 0)));
+    renderer.addParticles(steel, std::min(d.halfLength / 15.f, d.width / 40.f), {170, 175, 190});
   }
   for (const Thread& t : s.threads) {
     std::vector<Vec3f> points;
