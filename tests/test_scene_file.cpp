@@ -148,6 +148,13 @@ TEST(SceneFileErrors, ToolAndThreadErrorsAreRenamedToTheirKeys) {
   EXPECT_EQ(loadError("{\"settings\": ").rfind("(scene) = (not JSON): ", 0), 0u);
 }
 
+TEST(SceneFileErrors, CameraAndGroundAreCheckedByTheRendererAtLoading) {
+  EXPECT_EQ(loadError(R"({"output": {"camera": {"eye": [0, 1, 0], "target": [0, 1, 0]}}})"),
+            "output.camera.target = eye: must differ from Camera.eye");
+  EXPECT_EQ(loadError(R"({"output": {"camera": {"width": 0}}})"), "output.camera.width = 0: must be in 1..32768");
+  EXPECT_EQ(loadError(R"({"output": {"ground": {"halfSize": 0}}})").rfind("output.ground.halfSize = ", 0), 0u);
+}
+
 // --- the file's keys map onto the same physics as the C++ setup -------------------------
 
 // a 0.2 kg ball dropped on a slab on the ground, standard MPM, every field away from its default

@@ -51,20 +51,27 @@ void readOutput(Node* n, LoadedScene::Impl& s) {
     c.read("target", o.camera.target);
     c.read("up", o.camera.up);
     c.read("fovYDegrees", o.camera.fovYDegrees);
-    if (c.read("width", o.camera.width) && (o.camera.width < 1 || o.camera.width > 8192))
-      fail(c.at("width"), o.camera.width, "must lie in [1, 8192]");
-    if (c.read("height", o.camera.height) && (o.camera.height < 1 || o.camera.height > 8192))
-      fail(c.at("height"), o.camera.height, "must lie in [1, 8192]");
-    if (!(o.camera.fovYDegrees > 0.f && o.camera.fovYDegrees < 180.f))
-      fail(c.at("fovYDegrees"), o.camera.fovYDegrees, "must lie in (0, 180)");
+    c.read("width", o.camera.width);
+    c.read("height", o.camera.height);
     c.finish();
+  }
+  // the renderer checks the camera and the ground: here, so a bad one is a bad file
+  try {
+    io::SplatRenderer renderer(o.camera);
+  } catch (const InvalidArgument& e) {
+    rethrowAt(e, "Camera", n->at("camera"));
   }
   if (n->has("ground")) {
     Node g = n->object("ground");
     std::pair<float, float> ground{0.f, 1.f};
     g.read("height", ground.first);
-    if (g.read("halfSize", ground.second) && !(ground.second > 0.f)) fail(g.at("halfSize"), ground.second, "must be > 0");
+    g.read("halfSize", ground.second);
     g.finish();
+    try {
+      io::SplatRenderer(o.camera).setGround(ground.first, ground.second);
+    } catch (const InvalidArgument& e) {
+      rethrowAt(e, "setGround", g.path());
+    }
     o.ground = ground;
   }
   if (n->read("particleRadius", o.particleRadius) && !(o.particleRadius >= 0.f))
