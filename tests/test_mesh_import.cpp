@@ -538,7 +538,10 @@ TEST(MeshImport, ObjIndexOutOfRangeIsRefused) {
       {v + "f 1 2 0\n", "OBJ line 5: index 0 in '0' names no vertex"},
       {v + "f 1 2 -4\n", "OBJ line 5: index -4 in '-4' names no vertex"},
       {v + "f 1//1 2//2 3//1\n", "OBJ line 5: index 2 names no normal (the file has 1)"},
-      {v + "f 1 2 x\n", "OBJ line 5: 'x' is no vertex reference"}};
+      {v + "f 1 2 x\n", "OBJ line 5: 'x' is no vertex reference"},
+      // found next: a vertex with a word that is no number, which assimp read a vertex short
+      {"v 0 0 0\nv 1 0ase5 0\nv 0 1 0\nf 1 2 3\n", "OBJ line 2: '0ase5' is no number"},
+      {"v 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "OBJ line 1: 'v' with 2 values (3 to 7)"}};
   for (const auto& b : bad) EXPECT_NE(message(b.first).find(b.second), std::string::npos) << message(b.first);
 }
 

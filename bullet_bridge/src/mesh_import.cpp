@@ -486,7 +486,8 @@ void checkGltfDataUris(const uint8_t* data, size_t size, const std::string& what
 /// the mesh, and throws from there, leaking the mesh (fuzz_mesh_import found "vertex index
 /// out of range"). Every index of an "f", "l" or "p" line is checked first: an integer, not
 /// 0, counting from 1 up to the file's number of "v" (and "vt", "vn") lines, or back from
-/// -1 over those read so far; refused naming the line.
+/// -1 over those read so far; and those lines hold numbers only, 3 to 7 for "v", 1 to 3 for
+/// "vt", 3 for "vn"; refused naming the line.
 void checkObjIndices(const uint8_t* data, size_t size, const std::string& what) {
   struct Reference {
     long long index;
@@ -505,7 +506,24 @@ void checkObjIndices(const uint8_t* data, size_t size, const std::string& what) 
     const std::vector<std::string> words = wordsOf(text);
     if (words.empty()) continue;
     const std::string& key = words[0];
-    if (key == "v" || key == "vt" || key == "vn") ++count[key == "v" ? 0 : key == "vt" ? 1 : 2];
+    if (key == "v" || key == "vt" || key == "vn") {
+      // numbers only (assimp counts a line's numbers to tell its kind of vertex: a word that
+      // is none made it read a vertex short, and a face's index then named none: found by
+      // the fuzzer, "v 0.03 0ase51 -0.01")
+      const size_t least = key == "vt" ? 1 : 3, most = key == "v" ? 7 : 3;
+      if (words.size() - 1 < least || words.size() - 1 > most)
+        throw mpm::Error("loadTriangleMesh: " + what + ": OBJ line " + std::to_string(line) + ": '" + key + "' with " +
+                         std::to_string(words.size() - 1) + " values (" + std::to_string(least) + " to " +
+                         std::to_string(most) + ")");
+      for (size_t w = 1; w < words.size(); ++w) {
+        std::string word = words[w];
+        if (!word.empty() && word.back() == '\r') word.pop_back();
+        if (!plyNumber(word, false))
+          throw mpm::Error("loadTriangleMesh: " + what + ": OBJ line " + std::to_string(line) + ": '" + printable(word) +
+                           "' is no number");
+      }
+      ++count[key == "v" ? 0 : key == "vt" ? 1 : 2];
+    }
     if (key != "f" && key != "l" && key != "p") continue;
     for (size_t w = 1; w < words.size(); ++w) {
       std::string word = words[w];
