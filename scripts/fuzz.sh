@@ -20,7 +20,7 @@ seconds="${MPM_FUZZ_SECONDS:-90}" seed="${MPM_FUZZ_SEED:-1}"
 # target is one more line.
 table=(
   "fuzz_checkpoint  checkpoint 300000"
-  "fuzz_mesh_import mesh       20000"
+  "fuzz_mesh_import mesh       40000"
 )
 declare -A corpus_of runs_of
 targets=()
