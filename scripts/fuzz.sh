@@ -21,6 +21,7 @@ seconds="${MPM_FUZZ_SECONDS:-90}" seed="${MPM_FUZZ_SEED:-1}"
 table=(
   "fuzz_checkpoint  checkpoint 300000"
   "fuzz_mesh_import mesh       40000"
+  "fuzz_scene_file  scene_file 100000"
 )
 declare -A corpus_of runs_of
 targets=()

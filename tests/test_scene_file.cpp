@@ -118,6 +118,16 @@ TEST(SceneFileErrors, OutOfRangeMaterialIsTheLibrarysMessageAtTheKeyPath) {
   EXPECT_EQ(loadError(json), "objects[1].material.poissonRatio = 0.7: must lie in (-1, 0.5)");
 }
 
+// JSON that nlohmann reads as no JSON: a syntax error, and a number beyond a double, which
+// it reports as out_of_range rather than parse_error (fuzz_scene_file found it escaping the
+// loader as nlohmann's exception: mpm_run ended in std::terminate).
+TEST(SceneFileErrors, TextThatIsNoJsonIsRefused) {
+  for (const std::string json : {std::string("{\"settings\": "), std::string("{") + kDomain + R"(, "world": {"tick": 4e400}})"}) {
+    const std::string message = loadError(json);
+    EXPECT_NE(message.find("(not JSON)"), std::string::npos) << message;
+  }
+}
+
 TEST(SceneFileErrors, MissingMeshFileNamesTheKey) {
   const std::string json = std::string("{") + kDomain +
                            R"(, "objects": [{"primitive": "Mesh", "center": [0, 0.1, 0], "mesh": {"file": "no_such.obj"}}]})";
