@@ -39,11 +39,11 @@ struct SettleBodies {
   const ContactSums* sums;
   ContactSums* record;  ///< momentum exchanged, summed over the substeps of an advance
   MPM_HD void operator()(size_t i) const {
-    settleBodyVelocity(bodies[i], sums[i]);
-    for (int k = 0; k < 3; ++k) {
-      record[i].impulse[k] += sums[i].impulse[k];
-      record[i].angular[k] += sums[i].angular[k];
-    }
+    const Vec3f H = settleBodyVelocity(bodies[i], sums[i]);
+    for (int k = 0; k < 3; ++k) record[i].impulse[k] += sums[i].impulse[k];
+    record[i].angular[0] += H.x;
+    record[i].angular[1] += H.y;
+    record[i].angular[2] += H.z;
   }
 };
 
