@@ -13,6 +13,7 @@ packages=(
   zlib1g-dev                         # CRC-32 of checkpoints
   libcli11-dev                       # command-line parsing in demos and benchmarks
   nlohmann-json3-dev                 # scene and result files
+  pybind11-dev                       # the Python module mpm_bullet (python/; pip install .)
   python3-jsonschema                 # the scene files' schema test (tests/scene_files)
   clang                              # libFuzzer for the loaders' fuzz targets (scripts/fuzz.sh)
 )

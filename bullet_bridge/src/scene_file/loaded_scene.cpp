@@ -83,9 +83,13 @@ void readWorld(Node* n, LoadedScene::Impl& s) {
 }
 
 std::string resolveFile(const LoadedScene::Impl& s, const Json& name, const std::string& path) {
+  return resolveFile(s.baseDir, name, path);
+}
+
+std::string resolveFile(const std::string& baseDir, const Json& name, const std::string& path) {
   std::string file;
   parse(name, path, file);
-  if (!file.empty() && file[0] != '/') file = s.baseDir + "/" + file;
+  if (!file.empty() && file[0] != '/') file = baseDir + "/" + file;
   if (!std::ifstream(file).good()) fail(path, name, "no such file (" + file + ")");
   return file;
 }

@@ -17,9 +17,9 @@ void readMaterial(Node n, Material& m) {
 }
 
 /// The inside of a mesh file as a signed distance grid of `cellSize` (default dx / 2).
-std::shared_ptr<const SignedDistanceGrid> readMesh(Node n, const LoadedScene::Impl& s) {
-  const std::string file = resolveFile(s, n.require("file"), n.at("file"));
-  float scale = 1.f, cellSize = 0.5f * s.scene->settings().dx;
+std::shared_ptr<const SignedDistanceGrid> readMesh(Node n, const std::string& baseDir, float dx) {
+  const std::string file = resolveFile(baseDir, n.require("file"), n.at("file"));
+  float scale = 1.f, cellSize = 0.5f * dx;
   n.read("scale", scale);
   n.read("cellSize", cellSize);
   n.finish();
@@ -44,37 +44,49 @@ io::Rgb readColor(const Json& j, const std::string& path) {
   return {(uint8_t)c[0], (uint8_t)c[1], (uint8_t)c[2]};
 }
 
+ObjectEntry readObjectEntry(const Json& j, const std::string& path, const std::string& baseDir, float dx) {
+  Node n(j, path);
+  ObjectEntry o;
+  if (const Json* name = n.get("name")) parse(*name, n.at("name"), o.name.emplace());
+  ParticleObjectDesc& d = o.desc;
+  n.read("primitive", d.primitive);
+  n.read("center", d.center);
+  n.read("halfExtents", d.halfExtents);
+  n.read("radius", d.radius);
+  if (n.has("mesh")) {
+    if (d.primitive != PrimitiveType::Mesh) fail(n.at("mesh"), n.require("mesh"), "needs \"primitive\": \"Mesh\"");
+    d.mesh = readMesh(n.object("mesh"), baseDir, dx);
+  } else if (d.primitive == PrimitiveType::Mesh) {
+    failMissing(n.at("mesh"), "required with \"primitive\": \"Mesh\"");
+  }
+  n.read("particlesPerCellAxis", d.particlesPerCellAxis);
+  n.read("particleSpacing", d.particleSpacing);
+  if (n.has("material")) readMaterial(n.object("material"), d.material);
+  n.read("velocity", d.velocity);
+  n.read("angularVelocity", d.angularVelocity);
+  if (const Json* c = n.get("color")) o.color = readColor(*c, n.at("color"));
+  n.finish();
+  return o;
+}
+
+ParticleObjectId addObjectAt(Scene& scene, const ParticleObjectDesc& desc, const std::string& path) {
+  try {
+    return scene.addParticleObject(desc);
+  } catch (const InvalidArgument& e) {
+    rethrowAt(e, "ParticleObjectDesc", path);
+  }
+}
+
 void readObjects(const Json& objects, LoadedScene::Impl& s) {
   for (size_t i = 0; i < objects.size(); ++i) {
-    Node n(objects[i], element("objects", i));
+    const std::string path = element("objects", i);
+    ObjectEntry e = readObjectEntry(objects[i], path, s.baseDir, s.scene->settings().dx);
     Object o;
-    o.name = "object" + std::to_string(i);
-    n.read("name", o.name);
+    o.name = e.name ? *e.name : "object" + std::to_string(i);
     for (const Object& other : s.objects)
-      if (other.name == o.name) fail(n.at("name"), o.name, "another object has this name");
-    ParticleObjectDesc d;
-    n.read("primitive", d.primitive);
-    n.read("center", d.center);
-    n.read("halfExtents", d.halfExtents);
-    n.read("radius", d.radius);
-    if (n.has("mesh")) {
-      if (d.primitive != PrimitiveType::Mesh) fail(n.at("mesh"), n.require("mesh"), "needs \"primitive\": \"Mesh\"");
-      d.mesh = readMesh(n.object("mesh"), s);
-    } else if (d.primitive == PrimitiveType::Mesh) {
-      failMissing(n.at("mesh"), "required with \"primitive\": \"Mesh\"");
-    }
-    n.read("particlesPerCellAxis", d.particlesPerCellAxis);
-    n.read("particleSpacing", d.particleSpacing);
-    if (n.has("material")) readMaterial(n.object("material"), d.material);
-    n.read("velocity", d.velocity);
-    n.read("angularVelocity", d.angularVelocity);
-    if (const Json* c = n.get("color")) o.color = readColor(*c, n.at("color"));
-    n.finish();
-    try {
-      o.id = s.scene->addParticleObject(d);
-    } catch (const InvalidArgument& e) {
-      rethrowAt(e, "ParticleObjectDesc", n.path());
-    }
+      if (other.name == o.name) fail(child(path, "name"), o.name, "another object has this name");
+    if (e.color) o.color = *e.color;
+    o.id = addObjectAt(*s.scene, e.desc, path);
     s.objects.push_back(o);
   }
 }

@@ -16,6 +16,7 @@
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/scene_file.h"
 #include "mpm_bullet/suture.h"
+#include "scene_file/entry_readers.h"
 #include "scene_file/json_reader.h"
 #include "scene_file/scripted_motion.h"
 
@@ -108,7 +109,6 @@ struct LoadedScene::Impl {
 
 namespace mpm::bullet::scene_file {
 
-SceneSettings readSettings(const Json* settings);
 void readWorld(Node* world, LoadedScene::Impl& s);
 void readObjects(const Json& objects, LoadedScene::Impl& s);
 void readBodies(const Json& bodies, LoadedScene::Impl& s);
@@ -116,7 +116,6 @@ void readSlicers(const Json& slicers, LoadedScene::Impl& s);
 void readNeedles(const Json& needles, LoadedScene::Impl& s);
 void readThreads(const Json& threads, LoadedScene::Impl& s);
 void readOutput(Node* output, LoadedScene::Impl& s);
-io::Rgb readColor(const Json& color, const std::string& path);
 /// A file named in the scene, relative to its folder; refused naming `path` when missing.
 std::string resolveFile(const LoadedScene::Impl& s, const Json& name, const std::string& path);
 
