@@ -1,0 +1,334 @@
+"""Tissue in a pybullet world: two-way coupling of an mpm_bullet.Scene with pybullet bodies.
+
+    import pybullet as p, mpm_bullet as mb
+    from mpm_bullet.pybullet import Coupler
+    client = p.connect(p.DIRECT)
+    p.setGravity(0, 0, -9.81)                        # before add_body: shapes take it then
+    scene = mb.Scene({"domain": {...}, "dx": 0.01, "gravity": [0, 0, -9.81]})
+    scene.add_object({...})                          # the tissue
+    coupler = Coupler(client, scene)
+    coupler.add_body(p.loadURDF("gripper.urdf"))     # every link with a collision shape
+    for _ in range(240):
+        coupler.step()                               # instead of p.stepSimulation()
+
+Each coupled link's collision shapes become one MPM shape whose parts are the link's
+collision shapes (box, sphere, capsule, cylinder, plane; a mesh, which pybullet collides
+with as the convex hull of its vertices, as that hull). The shape's frame is the link's
+centre-of-mass (inertial) frame, the frame pybullet reports poses and velocities in and
+gives collision frames relative to (getCollisionShapeData; checked for bases and links).
+
+How a link takes part (add_body's `mode`; None picks by the body):
+- "dynamic" (default for every link of a body with a free base): a dynamic shape with the
+  link's mass, principal inertia and the world's gravity, as the C++ coupler
+  (mpm_bullet/coupler.h) makes a Bullet body with mass. Within a step the tissue moves it
+  as a free body would (implicitly), and its momentum goes back to the link.
+- "held" (default for the links of a fixed-base robot, e.g. loadURDF(useFixedBase=True)):
+  a kinematic shape that moves with the link's velocity, and the momentum the grid gave it
+  goes back to the link. Its joints and motors hold such a link, which a free body in the
+  scene cannot express: as a dynamic shape it would fall with gravity within every step
+  and drag the tissue it carries down with it (measured: a 6 cm tissue block on a 0.3 kg
+  pad welded to a fixed base sank 2 cm in 0.45 s; "held", it rests as on a static pad). The
+  coupling is explicit: stable while the drive is stiff against the tissue it touches.
+- "static": a link without mass (a static body, a fixed base): a kinematic shape that
+  moves with the velocity pybullet reports for it; nothing goes back.
+
+What Coupler.step() does, in this order, and why:
+ 1. each coupled link's shape takes the link's pose and velocities as pybullet left them
+    after its last step;
+ 2. the tissue advances over pybullet's time step (fixedTimeStep; all of it, whatever
+    numSubSteps) with its own substeps. Inside, a dynamic shape falls with gravity and its
+    velocity is updated implicitly with the mass of the nodes it touches, so the tissue's
+    push is felt within the step and a body lighter than the tissue settles instead of
+    oscillating;
+ 3. the momentum J the grid gave each dynamic or held shape goes to its link as a force J / dt at
+    its centre of mass and a torque (world frame); pybullet holds an external force over
+    the whole stepSimulation (each of its numSubSteps) and clears it afterwards, so the
+    link receives exactly J;
+ 4. p.stepSimulation(): pybullet integrates v += (g + F / m) dt before it moves the body,
+    so J arrives before this step's integration, as the C++ coupler's impulse does before
+    Bullet's tick. Applied after pybullet had already moved the body with this step's
+    gravity, a resting body would creep into the tissue by g dt^2 every step.
+
+Not handled: bodies loaded with useMaximalCoordinates (pybullet cannot report their
+collision shapes; refused), heightfields, concave triangle meshes (taken as their hull),
+pybullet's own damping (linearDamping / angularDamping, 0.04 by default: it still acts on
+the body; set it to 0 with changeDynamics for conservation checks). A body moved by
+resetBasePositionAndOrientation should also be given its velocity (resetBaseVelocity):
+the tissue sees a kinematic shape through its velocity.
+"""
+
+import numpy as np
+import pybullet as _p
+
+import mpm_bullet as _mb
+
+__all__ = ["Coupler", "convex_hull"]
+
+
+def _invalid(field, value, why):
+    """mpm_bullet.InvalidArgument with the C++ message form 'field = value: why'."""
+    e = _mb.InvalidArgument(f"{field} = {value}: {why}")
+    e.field, e.value = field, str(value)
+    return e
+
+
+def convex_hull(points):
+    """Triangles (M, 3) of the convex hull of `points` (N, 3), outward (counter-clockwise),
+    and the hull's vertices: (vertices, triangles). Incremental; meant for the few hundred
+    vertices of a collision mesh. Raises ValueError when the points are flat."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(pts) < 4:
+        raise ValueError(f"{len(pts)} points: a hull needs 4 not in a plane")
+    scale = float(np.ptp(pts, axis=0).max())
+    eps = 1e-9 * max(scale, 1e-30)
+    # a first tetrahedron from extreme points
+    i0 = int(np.argmin(pts[:, 0]))
+    i1 = int(np.argmax(np.linalg.norm(pts - pts[i0], axis=1)))
+    line = pts[i1] - pts[i0]
+    i2 = int(np.argmax(np.linalg.norm(np.cross(pts - pts[i0], line), axis=1)))
+    normal = np.cross(line, pts[i2] - pts[i0])
+    height = (pts - pts[i0]) @ normal
+    i3 = int(np.argmax(np.abs(height)))
+    if abs(height[i3]) <= eps * np.linalg.norm(normal) or np.linalg.norm(normal) <= eps * scale:
+        raise ValueError("the points are flat (no tetrahedron): a hull needs a thickness")
+    faces = [(i0, i1, i2), (i0, i2, i3), (i0, i3, i1), (i1, i3, i2)]
+    if height[i3] > 0:  # make the first face's normal point away from i3
+        faces = [(a, c, b) for a, b, c in faces]
+    faces = np.array(faces)
+    rest = [k for k in range(len(pts)) if k not in (i0, i1, i2, i3)]
+    # farthest points first: later ones are mostly inside and skipped
+    centre = pts[[i0, i1, i2, i3]].mean(axis=0)
+    rest.sort(key=lambda k: -np.linalg.norm(pts[k] - centre))
+    for k in rest:
+        a, b, c = pts[faces[:, 0]], pts[faces[:, 1]], pts[faces[:, 2]]
+        n = np.cross(b - a, c - a)
+        visible = np.einsum("ij,ij->i", n, pts[k] - a) > eps * np.linalg.norm(n, axis=1)
+        if not visible.any():
+            continue
+        edges = {(int(f[e]), int(f[(e + 1) % 3])) for f in faces[visible] for e in range(3)}
+        horizon = [(u, v) for (u, v) in edges if (v, u) not in edges]
+        faces = np.vstack([faces[~visible], [(u, v, k) for u, v in horizon]])
+    used, triangles = np.unique(faces, return_inverse=True)
+    return pts[used], triangles.reshape(-1, 3)
+
+
+def _plane_orientation(normal):
+    """Quaternion (x, y, z, w) turning +y (the MPM plane's outward normal) onto `normal`."""
+    n = np.asarray(normal, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    y = np.array([0.0, 1.0, 0.0])
+    if n @ y < -0.9999:
+        return (1.0, 0.0, 0.0, 0.0)  # half a turn about x
+    axis = np.cross(y, n)
+    w = 1.0 + n @ y
+    q = np.array([axis[0], axis[1], axis[2], w])
+    return tuple(q / np.linalg.norm(q))
+
+
+MODES = ("dynamic", "held", "static")
+
+
+class _Link:
+    __slots__ = ("body", "link", "shape", "mode", "desc")
+
+    def __init__(self, body, link, shape, mode, desc):
+        self.body, self.link, self.shape, self.mode, self.desc = body, link, shape, mode, desc
+
+    @property
+    def dynamic(self):
+        return self.mode == "dynamic"
+
+
+class Coupler:
+    """Couples bodies and links of the pybullet world `client_id` to `scene`; call step()
+    instead of p.stepSimulation(). The scene's gravity should be pybullet's."""
+
+    def __init__(self, client_id, scene, sdf_cell_size=None):
+        if not _p.isConnected(physicsClientId=client_id):
+            raise _invalid("Coupler client_id", client_id, "no pybullet client is connected with this id")
+        self.client = client_id
+        self.scene = scene
+        self.sdf_cell_size = sdf_cell_size
+        self._links = []
+        self._gravity = self._world_gravity()
+        self.last_dt = 0.0
+
+    # -- reading pybullet -------------------------------------------------------------
+    def _world_gravity(self):
+        q = _p.getPhysicsEngineParameters(physicsClientId=self.client)
+        return (q["gravityAccelerationX"], q["gravityAccelerationY"], q["gravityAccelerationZ"])
+
+    def _parts(self, body, link, cell):
+        """The link's collision shapes as MPM shape parts, in its centre-of-mass frame."""
+        try:
+            shapes = _p.getCollisionShapeData(body, link, physicsClientId=self.client)
+        except _p.error as e:
+            raise _invalid(f"Coupler.add_body body {body} link {link}", "collision shapes",
+                           f"pybullet cannot report them ({e}); load the body without "
+                           "useMaximalCoordinates") from None
+        parts = []
+        for k, s in enumerate(shapes):
+            kind, dims, pos, orn = s[2], s[3], s[5], s[6]
+            where = f"body {body} link {link} collision shape {k}"
+            part = {"position": list(pos), "orientation": list(orn)}
+            if kind == _p.GEOM_SPHERE:
+                part.update(type="sphere", radius=dims[0])
+            elif kind == _p.GEOM_BOX:
+                part.update(type="box", halfExtents=[0.5 * d for d in dims])
+            elif kind in (_p.GEOM_CAPSULE, _p.GEOM_CYLINDER):  # (length, radius) along local z
+                part.update(type="capsule" if kind == _p.GEOM_CAPSULE else "cylinder",
+                            radius=dims[1], halfHeight=0.5 * dims[0], axis=2)
+            elif kind == _p.GEOM_PLANE:
+                part.update(orientation=list(_quat_mul(orn, _plane_orientation(dims))), type="plane")
+            elif kind == _p.GEOM_MESH:
+                # getMeshData gives the scaled vertices already in the centre-of-mass frame
+                _, verts = _p.getMeshData(body, link, collisionShapeIndex=k, physicsClientId=self.client)
+                try:
+                    v, t = convex_hull(verts)
+                except ValueError as e:
+                    raise _invalid(where, "mesh", f"{e}") from None
+                part = {"type": "mesh", "vertices": v.astype(np.float32), "triangles": t.astype(np.int32)}
+                if cell is not None:
+                    part["cellSize"] = cell
+            else:
+                raise _invalid(where, f"geometry type {kind}",
+                               "cannot be coupled (supported: sphere, box, capsule, cylinder, plane, mesh)")
+            parts.append(part)
+        return parts
+
+    def _states(self, body, links):
+        """(position, orientation, linear velocity, angular velocity) of each centre of mass."""
+        out = []
+        idx = [l for l in links if l >= 0]
+        states = dict(zip(idx, _p.getLinkStates(body, idx, computeLinkVelocity=1, computeForwardKinematics=1,
+                                                  physicsClientId=self.client))) if idx else {}
+        for l in links:
+            if l < 0:
+                pos, orn = _p.getBasePositionAndOrientation(body, physicsClientId=self.client)
+                v, w = _p.getBaseVelocity(body, physicsClientId=self.client)
+                out.append((pos, orn, v, w))
+            else:
+                s = states[l]
+                out.append((s[0], s[1], s[6], s[7]))
+        return out
+
+    # -- coupling ---------------------------------------------------------------------
+    def add_body(self, body_id, link_index=None, contact=None, mode=None, sdf_cell_size=None):
+        """Couples link `link_index` of `body_id` (-1: the base; None: the base and every
+        link that has collision shapes). `contact`: {"mode", "friction", "drag", "band"}
+        as the scene's shapes take it; friction unset: the link's pybullet lateral
+        friction. `mode`: "dynamic", "held" or "static" (see the module's docstring); None:
+        "static" for a link without mass, else "held" on a body whose base has no mass
+        (a fixed base), else "dynamic". Returns the ShapeIds, one per coupled link, base
+        first."""
+        if mode is not None and mode not in MODES:
+            raise _invalid("Coupler.add_body mode", repr(mode), "must be None, 'dynamic', 'held' or 'static'")
+        n = _p.getNumJoints(body_id, physicsClientId=self.client)  # raises for an unknown body
+        links = list(range(-1, n)) if link_index is None else [link_index]
+        for l in links:
+            if not -1 <= l < n:
+                raise _invalid("Coupler.add_body link_index", l, f"body {body_id} has links -1 (base) to {n - 1}")
+            if self._find(body_id, l) is not None:
+                raise _invalid("Coupler.add_body link_index", l, f"body {body_id}'s link is already coupled")
+        cell = sdf_cell_size if sdf_cell_size is not None else self.sdf_cell_size
+        base_mass = _p.getDynamicsInfo(body_id, -1, physicsClientId=self.client)[0]  # 0: a fixed base
+        ids = []
+        for l, (pos, orn, v, w) in zip(links, self._states(body_id, links)):
+            parts = self._parts(body_id, l, cell)
+            if not parts:
+                if link_index is None:
+                    continue  # e.g. a fixed base's root without geometry
+                raise _invalid("Coupler.add_body link_index", l, f"body {body_id}'s link has no collision shape")
+            info = _p.getDynamicsInfo(body_id, l, physicsClientId=self.client)
+            mass, friction, inertia = info[0], info[1], info[2]
+            c = dict(contact or {})
+            c.setdefault("friction", friction)
+            desc = dict(parts=parts, contact=c)
+            m = mode
+            if m is None:
+                m = "static" if mass <= 0 else "held" if base_mass <= 0 else "dynamic"
+            if m != "static" and mass <= 0:
+                raise _invalid("Coupler.add_body mode", repr(m), f"body {body_id} link {l} has no mass: only 'static'")
+            if m == "dynamic":
+                desc.update(mass=mass, inertia=tuple(inertia))
+            link = _Link(body_id, l, None, m, desc)
+            link.shape = self._add_shape(link, (pos, orn, v, w))
+            self._links.append(link)
+            ids.append(link.shape)
+        return ids
+
+    def _add_shape(self, link, state):
+        pos, orn, v, w = state
+        extra = {"gravity": self._gravity} if link.dynamic else {}
+        return self.scene.add_shape(position=pos, orientation=orn, linear_velocity=v, angular_velocity=w,
+                                    **link.desc, **extra)
+
+    def _find(self, body, link):
+        for k, l in enumerate(self._links):
+            if l.body == body and l.link == link:
+                return k
+        return None
+
+    def remove(self, body_id, link_index=None):
+        """Stops coupling a link (None: all of the body's coupled links); their shapes
+        leave the scene."""
+        keep = []
+        for l in self._links:
+            if l.body == body_id and (link_index is None or l.link == link_index):
+                self.scene.remove_shape(l.shape)
+            else:
+                keep.append(l)
+        self._links = keep
+
+    def shape_of(self, body_id, link_index=-1):
+        """ShapeId of a coupled link, e.g. for scene.shape_impulse."""
+        k = self._find(body_id, link_index)
+        if k is None:
+            raise _invalid("Coupler.shape_of", f"body {body_id} link {link_index}", "not coupled")
+        return self._links[k].shape
+
+    def step(self):
+        """One pybullet step with the tissue; see the module's docstring for the order."""
+        params = _p.getPhysicsEngineParameters(physicsClientId=self.client)
+        dt = params["fixedTimeStep"]
+        gravity = (params["gravityAccelerationX"], params["gravityAccelerationY"], params["gravityAccelerationZ"])
+        bodies = {}
+        for l in self._links:
+            bodies.setdefault(l.body, []).append(l)
+        # 1. shapes take the links' poses and velocities
+        states = []
+        for body, links in bodies.items():
+            states += zip(links, self._states(body, [l.link for l in links]))
+        regravitate = gravity != self._gravity  # the world's gravity changed: dynamic shapes take it
+        self._gravity = gravity
+        for l, s in states:
+            if l.dynamic and regravitate:
+                self.scene.remove_shape(l.shape)
+                l.shape = self._add_shape(l, s)
+            else:
+                self.scene.set_shape_state(l.shape, *s)
+        # 2. the tissue advances over the step
+        self.scene.step(dt)
+        self.last_dt = dt
+        # 3. the grid's momentum goes to each dynamic or held link as a force over the step,
+        # at its centre of mass (where it still is: pybullet has not moved it since step 1)
+        for l, (pos, _, _, _) in states:
+            if l.mode == "static":
+                continue
+            linear, angular = self.scene.shape_impulse(l.shape)
+            _p.applyExternalForce(l.body, l.link, [float(j) / dt for j in linear], pos, _p.WORLD_FRAME,
+                                  physicsClientId=self.client)
+            _p.applyExternalTorque(l.body, l.link, [float(j) / dt for j in angular], _p.WORLD_FRAME,
+                                   physicsClientId=self.client)
+        # 4. pybullet integrates with the tissue's push in
+        _p.stepSimulation(physicsClientId=self.client)
+
+
+def _quat_mul(a, b):
+    """Hamilton product of quaternions in pybullet's (x, y, z, w) order."""
+    ax, ay, az, aw = a
+    bx, by, bz, bw = b
+    return (aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw,
+            aw * bw - ax * bx - ay * by - az * bz)

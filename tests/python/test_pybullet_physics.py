@@ -1,0 +1,71 @@
+"""Physics of mpm_bullet.pybullet.Coupler against closed forms, on the C++ tests' scenes
+(pybullet_scenes.py): a sphere resting on tissue carries its weight, and a sphere thrown at
+free tissue keeps the total momentum. Coarse and short: a few seconds each on one core."""
+
+import numpy as np
+import pybullet as p
+import pytest
+
+from pybullet_scenes import G, resting_sphere, sphere_at_free_tissue
+
+
+# A 2 kg sphere dropped from 5 mm onto the slab rocks on it (an undamped elastic contact)
+# and comes to rest. Averaged over 0.8-1.2 s the vertical impulse the grid gave it carries its
+# weight: J_z / (m g T) = 1 within 2 %, the C++ RestingBoxFeelsItsWeight's bound. (Over
+# 0.4-0.8 s, the C++ test's window, the sphere, on a softer Hertz contact than the box's
+# flat face, still rocks at 0.1 m/s: its momentum change there is 3 % of m g T.) Over the
+# whole run the sphere's own balance J_z - m g T = dp holds to rounding: pybullet received
+# the grid's impulse exactly once.
+def test_sphere_resting_on_tissue_carries_its_weight():
+    client, scene, coupler, sphere, slab = resting_sphere(mass=2.0)
+    shape = coupler.shape_of(sphere)
+    mass = p.getDynamicsInfo(sphere, -1, physicsClientId=client)[0]
+    impulse, window, total, elapsed = 0.0, 0.0, 0.0, 0.0
+    for _ in range(288):  # 1.2 s at 1/240 s
+        coupler.step()
+        total += float(scene.shape_impulse(shape)[0][2])
+        elapsed += coupler.last_dt
+        if scene.time > 0.8:
+            impulse += float(scene.shape_impulse(shape)[0][2])
+            window += coupler.last_dt
+    ratio = impulse / (mass * G * window)
+    (x, y, z), _ = p.getBasePositionAndOrientation(sphere, physicsClientId=client)
+    v, _ = p.getBaseVelocity(sphere, physicsClientId=client)
+    balance = total - mass * G * elapsed - mass * v[2]  # it started at rest
+    print(f"resting sphere: J_z / (m g T) = {ratio:.4f} over {window:.3f} s; J - m g t - dp = {balance:.2e} N s "
+          f"over {elapsed:.2f} s; centre at z = {z:.4f} m, speed {np.linalg.norm(v):.4f} m/s")
+    assert window > 0.3
+    assert ratio == pytest.approx(1.0, abs=0.02), "time-averaged vertical impulse over m g T"
+    assert abs(balance) < 1e-4 * mass * G * elapsed, "the sphere's momentum balance"
+    assert np.linalg.norm(v) < 0.05, "the sphere has come to rest"
+    # on the tissue, neither through it nor floating on a cushion of grid: its bottom within
+    # half a cell of the slab's top (0.104 m); Hertz puts it 4 mm in (F = 4/3 E* R^1/2 d^3/2,
+    # E* = E / (1 - nu^2) = 220 kPa, R 6 cm, F 19.6 N)
+    assert abs((z - 0.06) - 0.104) < 0.5 * 0.02
+    p.disconnect(client)
+
+
+# Zero gravity, no walls: the 0.2 kg sphere at 2 m/s hits the free block. Nothing else acts,
+# so m v (pybullet) + sum m_p v_p (particles) stays p0 through the collision; the grid's
+# momentum reaches pybullet as a force over each step, so the drift is rounding only. 1 % of
+# |p0| is the C++ test's bound. The sphere must have handed on most of its momentum.
+def test_sphere_thrown_at_free_tissue_conserves_momentum():
+    client, scene, coupler, sphere, block, mass = sphere_at_free_tissue()
+
+    def total():
+        v, _ = p.getBaseVelocity(sphere, physicsClientId=client)
+        return mass * np.array(v) + np.array(scene.summary(block)["momentum"])
+
+    p0 = total()
+    drift = 0.0
+    for _ in range(20):  # 83 ms, as the C++ test's 5 frames of 1/60 s
+        coupler.step()
+        drift = max(drift, float(np.linalg.norm(total() - p0)))
+    tissue = np.array(scene.summary(block)["momentum"])
+    sphere_p = mass * p.getBaseVelocity(sphere, physicsClientId=client)[0][0]
+    print(f"thrown sphere: p0 = {p0}, sphere p_x {sphere_p:.5f}, tissue p = {tissue}; largest |p - p0| = "
+          f"{drift:.2e} ({100 * drift / np.linalg.norm(p0):.4f} % of |p0|)")
+    assert drift < 0.01 * np.linalg.norm(p0), "total momentum drift"
+    assert tissue[0] > 0.5 * p0[0], "the sphere hit and handed on most of its momentum"
+    assert sphere_p < 0.5 * p0[0]
+    p.disconnect(client)
