@@ -78,8 +78,8 @@ void bindHandles(py::module_& m) {
 
 void bindScene(py::module_&, SceneClass& c) {
   namespace sf = mpm::bullet::scene_file;
-  c.def(py::init([](py::object settings) {
-          const nlohmann::json j = settings.is_none() ? nlohmann::json::object() : toJson(settings, "settings");
+  c.def(py::init([](py::object dict) {
+          const nlohmann::json j = dict.is_none() ? nlohmann::json::object() : toJson(dict, "settings");
           const SceneSettings settings = sf::readSettings(&j);
           try {
             return std::make_unique<PyScene>(settings);
