@@ -6,7 +6,10 @@
 // and the solver's own stages (Scene::timings) per tick, one CPU thread; what is left is
 // the coupling and Bullet.
 //
-//   bench_pybullet_overhead [--ticks 192] [--repeats 3]
+//   bench_pybullet_overhead [--ticks 192] [--repeats 3] [--no-tissue 1]
+//
+// --no-tissue 1 leaves the slab out: a tick is then the coupling, Bullet and the scene's
+// fixed cost per tick.
 #include <btBulletDynamicsCommon.h>
 
 #include <algorithm>
@@ -35,7 +38,7 @@ struct Times {
   double substeps = 0;       ///< mean per tick
 };
 
-Times run(int ticks) {
+Times run(int ticks, bool tissue) {
   using Clock = std::chrono::steady_clock;
   const float g = 9.81f, dt = 1.f / 240;
   btDefaultCollisionConfiguration config;
@@ -70,7 +73,7 @@ Times run(int ticks) {
   slab.material.youngsModulus = 2e5f;
   slab.material.poissonRatio = 0.3f;
   slab.material.density = 1000.f;
-  scene.addParticleObject(slab);
+  if (tissue) scene.addParticleObject(slab);
 
   mpm::bullet::Coupler coupler(&world, scene);
   coupler.addRigidBody(&ground);
@@ -98,18 +101,20 @@ Times run(int ticks) {
 
 int main(int argc, char** argv) {
   int ticks = 192, repeats = 3;
+  bool tissue = true;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--ticks") ticks = std::atoi(argv[i + 1]);
     else if (a == "--repeats") repeats = std::atoi(argv[i + 1]);
+    else if (a == "--no-tissue") tissue = std::atoi(argv[i + 1]) == 0;
     else {
-      std::fprintf(stderr, "usage: bench_pybullet_overhead [--ticks N] [--repeats N]\n");
+      std::fprintf(stderr, "usage: bench_pybullet_overhead [--ticks N] [--repeats N] [--no-tissue 1]\n");
       return 2;
     }
   }
   std::vector<double> tickMedians, tickMeans, stageMeans;
   for (int r = 0; r < repeats; ++r) {
-    const Times t = run(ticks);
+    const Times t = run(ticks, tissue);
     tickMedians.push_back(median(t.tick));
     tickMeans.push_back(mean(t.tick));
     stageMeans.push_back(t.stages);

@@ -25,8 +25,8 @@ import pybullet as p  # noqa: E402
 from pybullet_scenes import resting_sphere  # noqa: E402
 
 
-def python_run(ticks):
-    client, scene, coupler, sphere, _ = resting_sphere()
+def python_run(ticks, tissue):
+    client, scene, coupler, sphere, _ = resting_sphere(tissue=tissue)
     scene.reset_timings()
     times = []
     for _ in range(ticks):
@@ -45,15 +45,19 @@ def main():
     ap.add_argument("--ticks", type=int, default=192)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--cpp", help="path of bench_pybullet_overhead, run alternately with the Python runs")
+    ap.add_argument("--no-tissue", action="store_true",
+                    help="leave the slab out: the step is then the coupling, the physics engine and the "
+                         "scene's fixed cost per step")
     args = ap.parse_args()
     rows, cpp_rows = [], []
     for r in range(args.repeats):
-        med, mean, stages, substeps, z = python_run(args.ticks)
+        med, mean, stages, substeps, z = python_run(args.ticks, not args.no_tissue)
         rows.append((med, mean, stages, mean - stages))
         print(f"run {r}: step median {med:.3f} ms, mean {mean:.3f} ms; solver stages {stages:.3f} ms per step "
               f"({substeps:.1f} substeps); mean step less stages {mean - stages:.3f} ms (sphere at z = {z:.4f} m)")
         if args.cpp:
-            out = subprocess.run([args.cpp, "--ticks", str(args.ticks), "--repeats", "1"], check=True,
+            extra = ["--no-tissue", "1"] if args.no_tissue else []
+            out = subprocess.run([args.cpp, "--ticks", str(args.ticks), "--repeats", "1"] + extra, check=True,
                                  capture_output=True, text=True).stdout
             line = [l for l in out.splitlines() if l.startswith("run 0:")][0]
             n = [float(x) for x in re.findall(r"([0-9.]+) ms", line)]  # median, mean, stages, rest

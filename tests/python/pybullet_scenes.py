@@ -29,15 +29,16 @@ def free_sphere(client, radius, mass, position, velocity=(0, 0, 0)):
     return body
 
 
-def resting_sphere(mass=2.0, radius=0.06):
+def resting_sphere(mass=2.0, radius=0.06, tissue=True):
     """RestingBoxFeelsItsWeight's scene (test_bullet_coupling.cpp), z-up, with a sphere for
     the box: a soft slab 0.3 x 0.3 x 0.1 m (E 200 kPa) on a static ground plane z = 0, dx 2 cm,
-    the sphere dropped from 5 mm above it. Returns (client, scene, coupler, sphere, slab)."""
+    the sphere dropped from 5 mm above it. Returns (client, scene, coupler, sphere, slab);
+    tissue=False leaves the slab out (slab None), for timing the coupling alone."""
     client = world(G)
     scene = mb.Scene({"domain": {"lower": [-0.25, -0.25, -0.1], "upper": [0.25, 0.25, 0.4]}, "dx": 0.02,
                       "gravity": [0, 0, -G], "backend": "Cpu", "cpuThreads": 1})
     slab = scene.add_object({"primitive": "Box", "center": [0, 0, 0.05 + 0.002], "halfExtents": [0.15, 0.15, 0.05],
-                             "material": SOFT_TISSUE})
+                             "material": SOFT_TISSUE}) if tissue else None
     ground = p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=client), physicsClientId=client)
     sphere = free_sphere(client, radius, mass, (0, 0, 0.104 + radius + 0.005))
     coupler = Coupler(client, scene)
