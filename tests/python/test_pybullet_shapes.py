@@ -11,7 +11,7 @@ import pytest
 
 import mpm_bullet as mb
 from mpm_bullet.pybullet import Coupler
-from pybullet_scenes import G, SOFT_TISSUE, world
+from pybullet_scenes import G, SOFT_TISSUE, free_sphere, resting_sphere, world
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PAD_TOP = 0.02  # every pad's top [m]
@@ -87,6 +87,44 @@ def test_links_are_coupled_in_their_centre_of_mass_frames():
     local = p.getCollisionShapeData(robot, 0, physicsClientId=client)[0][5:7]
     centre, _ = p.multiplyTransforms(com, orn, *local)
     assert np.allclose(centre, (0.165, 0, 0.01), atol=1e-6)
+    p.disconnect(client)
+
+
+# A capsule and a cylinder lying along y (their local z turned onto y) and a mesh block
+# (6 x 8 x 3 cm, its collision frame 3 cm above its centre of mass), 0.2 kg each, dropped on
+# the resting-sphere slab, come to rest with their lowest points on the tissue's top
+# (0.102 m) within half a cell, the C++ resting tests' bound, and dent the tissue by less
+# than a quarter of a cell (measured 0.7 mm). A part along the wrong axis pokes 3 cm into
+# the tissue (the capsule's and cylinder's half-lengths are 5 cm, their radii 2 cm) and
+# pushes it 13 mm aside (measured with the capsules' axis on local y); a mesh without its
+# frame offset would sit 3 cm lower in the tissue.
+def test_capsule_cylinder_and_mesh_rest_at_their_heights():
+    client, scene, coupler, _, slab = resting_sphere(mass=0.2, radius=0.02)
+    along_y = p.getQuaternionFromEuler([np.pi / 2, 0, 0])
+    bodies = {}
+    for name, kind, x in (("capsule", p.GEOM_CAPSULE, -0.09), ("cylinder", p.GEOM_CYLINDER, 0.0)):
+        col = p.createCollisionShape(kind, radius=0.02, height=0.1, physicsClientId=client)
+        bodies[name] = (p.createMultiBody(0.2, col, basePosition=[x, 0.1, 0.13], baseOrientation=along_y,
+                                          physicsClientId=client), 0.02)
+    col = p.createCollisionShape(p.GEOM_MESH, fileName=os.path.join(HERE, "assets", "block_6x8x3cm.obj"),
+                                 collisionFramePosition=[0, 0, 0.03], physicsClientId=client)
+    bodies["mesh"] = (p.createMultiBody(0.2, col, basePosition=[0.09, 0.1, 0.13 - 0.015], physicsClientId=client),
+                      -0.03 + 0.015)  # centre of mass above the lowest point
+    for body, _ in bodies.values():
+        p.changeDynamics(body, -1, linearDamping=0, angularDamping=0, physicsClientId=client)
+        coupler.add_body(body, contact={"friction": 0.5})
+    x0 = scene.positions(slab).copy()
+    for _ in range(144):  # 0.6 s
+        coupler.step()
+    moved = np.linalg.norm(scene.positions(slab) - x0, axis=1).max()
+    print(f"largest particle displacement {1e3 * moved:.2f} mm")
+    assert moved < 0.25 * DX, "the bodies dent the tissue, not poke into it"
+    for name, (body, above) in bodies.items():
+        (x, y, z), _ = p.getBasePositionAndOrientation(body, physicsClientId=client)
+        v = np.linalg.norm(p.getBaseVelocity(body, physicsClientId=client)[0])
+        print(f"{name}: lowest point at z = {z - above:.4f} m (tissue top 0.102), speed {v:.4f} m/s")
+        assert abs(z - above - 0.102) < 0.5 * DX, f"the {name} rests on the tissue"
+        assert v < 0.05, f"the {name} has come to rest"
     p.disconnect(client)
 
 
