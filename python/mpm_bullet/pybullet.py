@@ -57,6 +57,8 @@ resetBasePositionAndOrientation should also be given its velocity (resetBaseVelo
 the tissue sees a kinematic shape through its velocity.
 """
 
+import warnings
+
 import numpy as np
 import pybullet as _p
 
@@ -141,7 +143,9 @@ class _Link:
 
 class Coupler:
     """Couples bodies and links of the pybullet world `client_id` to `scene`; call step()
-    instead of p.stepSimulation(). The scene's gravity should be pybullet's."""
+    instead of p.stepSimulation(). The scene's gravity should be pybullet's (the first
+    step warns when it is not: pybullet is z-up, the scene's default gravity is along -y).
+    An error from the scene (e.g. SimulationDiverged) leaves pybullet unstepped."""
 
     def __init__(self, client_id, scene, sdf_cell_size=None):
         if not _p.isConnected(physicsClientId=client_id):
@@ -151,6 +155,7 @@ class Coupler:
         self.sdf_cell_size = sdf_cell_size
         self._links = []
         self._gravity = self._world_gravity()
+        self._gravity_checked = False
         self.last_dt = 0.0
 
     # -- reading pybullet -------------------------------------------------------------
@@ -299,6 +304,12 @@ class Coupler:
         states = []
         for body, links in bodies.items():
             states += zip(links, self._states(body, [l.link for l in links]))
+        if not self._gravity_checked:  # a z-up pybullet world with the scene's default (0, -9.81, 0)?
+            self._gravity_checked = True
+            if not np.allclose(self.scene.gravity, gravity, rtol=1e-5, atol=1e-6):
+                warnings.warn(f"the scene's gravity {tuple(float(g) for g in self.scene.gravity)} is not pybullet's "
+                              f"{gravity}: the tissue falls another way than the bodies (give the scene's settings "
+                              f"\"gravity\": {list(gravity)})", stacklevel=2)
         regravitate = gravity != self._gravity  # the world's gravity changed: dynamic shapes take it
         self._gravity = gravity
         for l, s in states:

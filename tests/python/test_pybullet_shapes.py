@@ -149,4 +149,9 @@ def test_bad_input_is_refused_naming_it():
         coupler.shape_of(body)
     with pytest.raises(mb.InvalidArgument, match="Coupler client_id = 99"):
         Coupler(99, scene)
+    with pytest.raises(mb.InvalidArgument, match="Coupler.add_body mode = 'floating'"):
+        coupler.add_body(body, mode="floating")
+    # the scene kept its default gravity (0, -9.81, 0) in pybullet's z-up world
+    with pytest.warns(UserWarning, match=r"gravity \(0.0, -9.81.*\) is not pybullet's \(0.0, 0.0, -9.81\)"):
+        coupler.step()
     p.disconnect(client)
