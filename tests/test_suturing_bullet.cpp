@@ -569,6 +569,157 @@ TEST_P(ThreadDrawnThroughTissue, StaysOnItsPin) {
 INSTANTIATE_TEST_SUITE_P(Direction, ThreadDrawnThroughTissue, ::testing::Bool(),
                          [](const auto& info) { return std::string(info.param ? "Sideways" : "AlongItself"); });
 
+/// A stitch's loop for a thread of 2.5 mm segments: down through the left block at x = -7.5 mm
+/// from 10.5 mm above its top, 6 segments under the gap at y = 8 mm, up through the right
+/// block at +7.5 mm to as high (24 segments, 6 cm).
+std::vector<btVector3> stitchLoop() {
+  std::vector<btVector3> p;
+  const float L = 0.0025f, top = 0.0305f, z = 0.0011f;
+  for (int i = 0; i <= 9; ++i) p.emplace_back(-0.0075f, top - L * i, z);
+  for (int i = 1; i <= 6; ++i) p.emplace_back(-0.0075f + L * i, top - 9 * L, z);
+  for (int i = 1; i <= 9; ++i) p.emplace_back(0.0075f, top - L * (9 - i), z);
+  return p;
+}
+
+/// Width of the gap between two blocks' facing sides over their upper half [m].
+float gapBetween(const Scene& scene, ParticleObjectId left, ParticleObjectId right) {
+  std::vector<Vec3f> a, b;
+  scene.readPositions(left, a);
+  scene.readPositions(right, b);
+  float inner = -1.f, outer = 1.f;
+  for (const Vec3f& x : a)
+    if (x.y > 0.01f) inner = std::max(inner, x.x);
+  for (const Vec3f& x : b)
+    if (x.y > 0.01f) outer = std::min(outer, x.x);
+  return outer - inner;
+}
+
+// layThreadAlong: a fixed-base thread laid along a stitch's loop (three straight runs, two
+// right-angle turns) has its points where asked (1e-6 m: float transforms over 6 cm) and
+// stays there, at rest, over 0.1 s without forces (a fixed base and no gravity: nothing
+// moves it; 1e-6 m); a list of the wrong length or spacing is refused naming the point.
+TEST(SutureThread, LaidAlongALoopStaysThere) {
+  BulletWorld bw(WorldType::MultiBody, 0.f);
+  bw.world->getSolverInfo().m_numIterations = kThreadIterations;
+  const std::vector<btVector3> loop = stitchLoop();
+  bullet::SutureThreadDesc d = testThread(loop.front(), btVector3(0, -1, 0), 0.f);
+  d.segments = 24;
+  d.fixedBase = true;
+  btMultiBody* thread = bullet::makeSutureThread(bw.multiWorld, d);
+  bullet::layThreadAlong(thread, loop);
+  auto worst = [&] {
+    const std::vector<btVector3> p = bullet::threadPoints(thread);
+    double e = 0;
+    for (size_t i = 0; i < p.size(); ++i) e = std::max(e, (double)(p[i] - loop[i]).length());
+    return e;
+  };
+  const double laid = worst();
+  for (int k = 0; k < 96; ++k) bw.world->stepSimulation(kThreadTick, 0);
+  const double after = worst();
+  std::printf("thread laid along a loop: points off by %.2e m, after 0.1 s %.2e m\n", laid, after);
+  EXPECT_LT(laid, 1e-6);
+  EXPECT_LT(after, 1e-6);
+  std::vector<btVector3> shortList(loop.begin(), loop.end() - 1);
+  EXPECT_THROW(bullet::layThreadAlong(thread, shortList), InvalidArgument);
+  std::vector<btVector3> stretched = loop;
+  stretched[5].setY(stretched[5].y() - 0.001f);
+  try {
+    bullet::layThreadAlong(thread, stretched);
+    ADD_FAILURE() << "a point off the spacing was taken";
+  } catch (const InvalidArgument& e) {
+    EXPECT_NE(std::string(e.what()).find("layThreadAlong points[5]"), std::string::npos) << e.what();
+  }
+  bullet::destroySutureThread(bw.multiWorld, thread);
+}
+
+// (e) A stitch pulled tight by a Bullet thread (seed 000 Fig. 12; the same blocks as
+// Suturing.TighteningAStitchClosesTheGap, whose thread is prescribed): two blocks
+// 2 x 2 x 1.25 cm 6 mm apart, glued at their bases, a 3-0 thread (0.05 g/m, 24 links of
+// 2.5 mm) laid through both in a loop (layThreadAlong), its left end Bullet's fixed base
+// (the knot) above the left block, its right end pinned to a 100 g holder that is drawn
+// up and across the wound at 1 cm/s; coupled both ways. The thread slides along itself,
+// its loop shortens and draws the blocks together: the gap closes to under a third of its
+// width, with MLS-MPM and PB-MPM, the pin holding within 1 % of a segment and the links
+// within 1 % of their length.
+//
+// DISABLED: it fails, and is the reproduction of what keeps the demo's wound open (README
+// Limits). Measured (MLS-MPM, 0.7 s unless said): the gap stays 7.25 -> 7.23 mm with no
+// tension (< 1 mN); the loop's corners cut through the tissue by up to 4 mm and its bottom
+// rises, the thread passing through the material as if it were not there. Why: a dynamic
+// segment's exchange with the nodes is implicit inside the scene, but what reaches its
+// Bullet link is its own momentum change, so the tissue can hold a segment with at most
+// m_s v_rel / dt (3-0, 2.5 mm, 1 cm/s, 1/960 s: 1.2e-6 N), whatever holds the chain. Heavier
+// threads measure that bound: 1e-2 and 0.1 kg/m: 7.23 and 7.16 mm; 5 kg/m: 5.25 mm after
+// 1.5 s with the tension at 0.07-0.12 N (the bound: 0.125 N); 1 kg/m: closed, then the pin
+// opened at 0.3 s (6 N). Kinematic segments in the scene with their impulses back to the
+// links (the tissue's full resistance, explicit on the links): 0.1 kg/m closed to 6.6 mm by
+// 0.2 s, then blew up; 1e-2 kg/m at once. Next: the tissue's contact mass added to the
+// links' in Bullet (added-mass coupling), so the explicit part is only the elastic force.
+class PullingTheStitch : public ::testing::TestWithParam<SolverType> {};
+
+TEST_P(PullingTheStitch, DISABLED_ClosesTheGap) {
+  BulletWorld bw(WorldType::MultiBody, 0.f);
+  bw.world->getSolverInfo().m_numIterations = kThreadIterations;
+  SceneSettings settings = threadTissueSettings();
+  settings.domain.upper.y = 0.06f;
+  settings.solver = GetParam();
+  Scene scene(settings);
+  const ParticleObjectId left = scene.addParticleObject(tissueBlock({0.01f, 0.01f, 0.00625f}, {-0.013f, 0.01f, 0.f}, 3e4f, 0.3f, 1000.f));
+  const ParticleObjectId right = scene.addParticleObject(tissueBlock({0.01f, 0.01f, 0.00625f}, {0.013f, 0.01f, 0.f}, 3e4f, 0.3f, 1000.f));
+  ShapeDesc plate;
+  plate.parts.push_back(Geometry::box({0.05f, 0.005f, 0.05f}));
+  plate.pose.position = {0.f, -0.005f, 0.f};
+  plate.contact.mode = ContactMode::Bonded;
+  scene.addShape(plate);
+  const std::vector<btVector3> loop = stitchLoop();
+  bullet::SutureThreadDesc d = testThread(loop.front(), btVector3(0, -1, 0), 1.f);
+  d.segments = 24;
+  d.length = 0.06f;
+  d.linearDensity = 5e-5f;
+  d.fixedBase = true;
+  btMultiBody* thread = bullet::makeSutureThread(bw.multiWorld, d);
+  bullet::layThreadAlong(thread, loop);
+  btRigidBody* holder = bw.addBody(new btSphereShape(0.001f), 0.1f, btTransform(btQuaternion::getIdentity(), loop.back()));
+  holder->setCollisionFlags(holder->getCollisionFlags() | btCollisionObject::CF_NO_CONTACT_RESPONSE);
+  btMultiBodyPoint2Point* pin = bullet::pinThreadPoint(bw.multiWorld, thread, d.segments, holder, btVector3(0, 0, 0));
+  bullet::Coupler coupler(bw.world.get(), scene);
+  bullet::ThreadCoupling options;
+  options.dynamic = true;
+  coupler.addThread(thread, options);
+  const btVector3 v(-0.01f, 0.01f, 0.f);
+  coupler.setPreTickCallback([&](float) {
+    holder->setLinearVelocity(v);
+    holder->setAngularVelocity(btVector3(0, 0, 0));
+  });
+  const float gap0 = gapBetween(scene, left, right);
+  ThreadWatch watch;
+  double gapPin = 0, tension = 0;
+  for (int k = 0; k < 672; ++k) {  // 0.7 s
+    bw.world->stepSimulation(kThreadTick, 0);
+    coupler.rethrowError();
+    watch.check(thread, d);
+    gapPin = std::max(gapPin, (double)(bullet::threadPoints(thread).back() - holder->getCenterOfMassPosition()).length());
+    tension = std::max(tension, (double)bullet::pinForce(pin, kThreadTick).length());
+    if (k % 96 == 95)
+      std::printf("  %.2f s: gap %.2f mm, pin %.2e m, tension %.3f N\n", (k + 1) * kThreadTick,
+                  1e3f * gapBetween(scene, left, right), gapPin, bullet::pinForce(pin, kThreadTick).length());
+    if (!watch.finite || gapPin > d.length) break;
+  }
+  const float gap = gapBetween(scene, left, right), L = d.length / d.segments;
+  std::printf("stitch pulled by a Bullet thread (%s): gap %.2f -> %.2f mm, pin gap %.2e of a segment, links %.2e, "
+              "peak tension %.3f N\n", GetParam() == SolverType::MlsMpm ? "MLS-MPM" : "PB-MPM", 1e3f * gap0,
+              1e3f * gap, gapPin / L, watch.length, tension);
+  EXPECT_TRUE(watch.finite);
+  EXPECT_LT(gapPin, 0.01 * L);
+  EXPECT_LT(watch.length, 0.01);
+  EXPECT_LE(gap, gap0 / 3.f);
+  coupler.removeThread(thread);
+  bullet::destroySutureThread(bw.multiWorld, thread);
+}
+
+INSTANTIATE_TEST_SUITE_P(Solver, PullingTheStitch, ::testing::Values(SolverType::MlsMpm, SolverType::PbMpm),
+                         [](const auto& info) { return std::string(info.param == SolverType::MlsMpm ? "MlsMpm" : "PbMpm"); });
+
 // (d) A needle (ArcDesc: a half circle of 12 mm) on a free dynamic Bullet body (20 g),
 // coupled with addNeedle, thrown tip first down into a free soft block at 0.2 m/s, gravity
 // off: over 50 ms the block gains the momentum the needle body loses (1e-4 of the throw;

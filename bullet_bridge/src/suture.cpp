@@ -186,6 +186,48 @@ std::vector<btVector3> threadPointVelocities(const btMultiBody* mb) {
   return v;
 }
 
+void layThreadAlong(btMultiBody* mb, const std::vector<btVector3>& points) {
+  requireChain(mb, "layThreadAlong");
+  const int n = segmentCount(mb);
+  if ((int)points.size() != n + 1)
+    throw InvalidArgument("layThreadAlong points", std::to_string(points.size()) + " points",
+                          "must be segments + 1 = " + std::to_string(n + 1));
+  for (int s = 0; s < n; ++s) {
+    const btScalar L = 2 * segmentHalf(mb, s).length();
+    const btScalar d = (points[(size_t)s + 1] - points[(size_t)s]).length();
+    if (!finite(points[(size_t)s]) || !finite(points[(size_t)s + 1]) || !(std::fabs(d - L) <= 1e-3f * L))
+      throw InvalidArgument("layThreadAlong points[" + std::to_string(s + 1) + "]", text(points[(size_t)s + 1]),
+                            "must be finite and one segment (" + std::to_string(L) + " m) from the point before");
+  }
+  // each segment's frame: its local x along the segment; parallel transport from the one
+  // before, so the joints do not twist
+  btQuaternion previous = btQuaternion::getIdentity();
+  btVector3 axis(1, 0, 0);
+  for (int s = 0; s < n; ++s) {
+    const btVector3 dir = (points[(size_t)s + 1] - points[(size_t)s]).normalized();
+    const btQuaternion frame = shortestArcQuat(axis, dir) * previous;  // segment to world
+    if (s == 0) {
+      mb->setBasePos(0.5f * (points[0] + points[1]));
+      mb->setWorldToBaseRot(frame.inverse());
+      mb->setBaseVel(btVector3(0, 0, 0));
+      mb->setBaseOmega(btVector3(0, 0, 0));
+    } else {
+      // a spherical joint's position q turns the link in its parent's frame: R_link = R_parent q
+      const btQuaternion q = previous.inverse() * frame;
+      btScalar pos[4] = {q.x(), q.y(), q.z(), q.w()};
+      btScalar vel[3] = {0, 0, 0};
+      mb->setJointPosMultiDof(s - 1, pos);
+      mb->setJointVelMultiDof(s - 1, vel);
+    }
+    previous = frame;
+    axis = dir;
+  }
+  btAlignedObjectArray<btQuaternion> scratchRot;
+  btAlignedObjectArray<btVector3> scratchPos;
+  mb->forwardKinematics(scratchRot, scratchPos);
+  mb->updateCollisionObjectWorldTransforms(scratchRot, scratchPos);
+}
+
 btMultiBodyPoint2Point* pinThreadPoint(btMultiBodyDynamicsWorld* world, btMultiBody* mb, int point, btRigidBody* body,
                                       const btVector3& pivotInBody) {
   if (!world) throw InvalidArgument("pinThreadPoint world", "null", "needs a btMultiBodyDynamicsWorld");

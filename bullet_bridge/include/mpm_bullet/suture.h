@@ -89,6 +89,13 @@ void destroySutureThread(btMultiBodyDynamicsWorld* world, btMultiBody* thread);
 /// end (segments + 1 points, world frame), from the links' current transforms. Works for
 /// any chain whose link i has parent i - 1 and whose base is symmetric about its centre.
 std::vector<btVector3> threadPoints(const btMultiBody* thread);
+/// Lays the thread along `points` (segments + 1 of them, world frame, consecutive points a
+/// segment length apart within 1e-3 of it), at rest: the base where its segment goes
+/// (a fixed base too: call it before the first tick), each spherical joint turned so its
+/// segment points from points[s] to points[s + 1], each turn the shortest from the segment
+/// before (no twist about the thread). For a thread already through tissue, a stitch's
+/// loop, or slack. Throws mpm::InvalidArgument naming the point for a bad list.
+void layThreadAlong(btMultiBody* thread, const std::vector<btVector3>& points);
 /// Velocities of the points above: point k from segment k's motion (v + w x r), the last
 /// point from the last segment's.
 std::vector<btVector3> threadPointVelocities(const btMultiBody* thread);
