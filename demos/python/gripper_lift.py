@@ -67,6 +67,7 @@ def main():
     coupler.add_body(gripper, contact={"friction": 1.0})
 
     start = scene.summary(cube)["center_of_mass"][2]
+    strip = {}  # open, closed, lifted: side by side in strip.png
     ticks = int(round(args.seconds / TICK))
     for i in range(ticks + 1):
         if i % args.png_every == 0:
@@ -74,6 +75,9 @@ def main():
                           (link_boxes(client, gripper, 0.004), 0.003, (120, 120, 140))],
                          lower=(-0.1, -0.01), upper=(0.1, 0.21))
             write_png(os.path.join(args.out, f"gripper_{i // args.png_every:03d}.png"), img)
+            for name, t in (("open", 0.0), ("closed", 0.8), ("lifted", args.seconds)):
+                if name not in strip and scene.time >= t - 1e-9:
+                    strip[name] = img
             z = scene.summary(cube)["center_of_mass"][2]
             palm = p.getLinkState(gripper, joints["lift"])[0][2]
             print(f"t = {scene.time:.3f} s: palm at z = {palm:.4f} m, cube's centre {1e3 * (z - start):+.1f} mm")
@@ -85,6 +89,7 @@ def main():
             p.setJointMotorControl2(gripper, joints[name], p.POSITION_CONTROL, targetPosition=finger, force=10,
                                     maxVelocity=0.1)
         coupler.step()
+    write_png(os.path.join(args.out, "strip.png"), np.concatenate(list(strip.values()), axis=1))
     rise = scene.summary(cube)["center_of_mass"][2] - start
     print(f"the cube rose {1e3 * rise:.1f} mm while the palm rose 50 mm; pictures in {args.out}")
     p.disconnect(client)
