@@ -9,3 +9,17 @@ jobs="$(nproc)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DMPM_BUILD_TESTS=ON
 cmake --build build -j "$jobs"
 ctest --test-dir build --output-on-failure -j "$jobs" "$@"
+
+# The Python module (tests/python, pytest): built above when CMake found pybind11 and the
+# python3 headers (MPM_BUILD_PYTHON); run in a virtual environment kept in the build tree,
+# made with the interpreter the module was built for, numpy, pytest and pybullet from PyPI.
+if grep -q '^MPM_BUILD_PYTHON:BOOL=ON' build/CMakeCache.txt; then
+  python="$(sed -n 's/^_Python_EXECUTABLE:INTERNAL=//p' build/CMakeCache.txt)"
+  venv=build/pyvenv
+  [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
+  "$venv/bin/python" -c 'import numpy, pytest, pybullet' 2>/dev/null ||
+    "$venv/bin/pip" install -q --disable-pip-version-check numpy pytest pybullet
+  PYTHONPATH="$root/build/python" "$venv/bin/python" -m pytest -q -p no:cacheprovider tests/python
+else
+  echo "test.sh: Python module not built (MPM_BUILD_PYTHON off: pybind11-dev or the python3 headers missing)"
+fi
