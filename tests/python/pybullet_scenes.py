@@ -11,11 +11,12 @@ G = 9.81
 SOFT_TISSUE = {"model": "NeoHookeanDecoupled", "youngsModulus": 2e5, "poissonRatio": 0.3, "density": 1000}
 
 
-def world(gravity, tick=1.0 / 240):
-    """A headless pybullet world with one tick per step."""
+def world(gravity, tick=1.0 / 240, sub_steps=0):
+    """A headless pybullet world stepping `tick` per stepSimulation, in `sub_steps` ticks of
+    its own (0: one)."""
     client = p.connect(p.DIRECT)
     p.setGravity(0, 0, -gravity, physicsClientId=client)
-    p.setPhysicsEngineParameter(fixedTimeStep=tick, numSubSteps=0, physicsClientId=client)
+    p.setPhysicsEngineParameter(fixedTimeStep=tick, numSubSteps=sub_steps, physicsClientId=client)
     return client
 
 
@@ -47,12 +48,12 @@ def resting_sphere(mass=2.0, radius=0.06, tissue=True):
     return client, scene, coupler, sphere, slab
 
 
-def sphere_at_free_tissue():
+def sphere_at_free_tissue(sub_steps=0):
     """SphereHittingFreeTissueConservesTotalMomentum's scene (test_bullet_physics.cpp): zero
     gravity, no walls, a 6 cm block of tissue (0.216 kg) at dx 1 cm and a 0.2 kg sphere of
     radius 2 cm thrown at it at 2 m/s, 1 cm off its axis. Returns (client, scene, coupler,
-    sphere, block, sphere mass)."""
-    client = world(0.0)
+    sphere, block, sphere mass). `sub_steps`: pybullet's numSubSteps."""
+    client = world(0.0, sub_steps=sub_steps)
     scene = mb.Scene({"domain": {"lower": [-0.3, -0.3, -0.3], "upper": [0.3, 0.3, 0.3], "walls": False},
                       "dx": 0.01, "gravity": [0, 0, 0], "backend": "Cpu", "cpuThreads": 1})
     block = scene.add_object({"primitive": "Box", "center": [0, 0, 0], "halfExtents": [0.03, 0.03, 0.03],
