@@ -3,7 +3,7 @@
     import pybullet as p, mpm_bullet as mb
     from mpm_bullet.pybullet import Coupler
     client = p.connect(p.DIRECT)
-    p.setGravity(0, 0, -9.81)                        # before add_body: shapes take it then
+    p.setGravity(0, 0, -9.81)                        # z up: give the scene the same
     scene = mb.Scene({"domain": {...}, "dx": 0.01, "gravity": [0, 0, -9.81]})
     scene.add_object({...})                          # the tissue
     coupler = Coupler(client, scene)
@@ -40,10 +40,10 @@ What Coupler.step() does, in this order, and why:
     velocity is updated implicitly with the mass of the nodes it touches, so the tissue's
     push is felt within the step and a body lighter than the tissue settles instead of
     oscillating;
- 3. the momentum J the grid gave each dynamic or held shape goes to its link as a force J / dt at
-    its centre of mass and a torque (world frame); pybullet holds an external force over
-    the whole stepSimulation (each of its numSubSteps) and clears it afterwards, so the
-    link receives exactly J;
+ 3. the momentum J the grid gave each dynamic or held shape goes to its link as a force
+    J / dt at its centre of mass and a torque (world frame); pybullet holds an external
+    force over the whole stepSimulation (each of its numSubSteps) and clears it
+    afterwards, so the link receives exactly J;
  4. p.stepSimulation(): pybullet integrates v += (g + F / m) dt before it moves the body,
     so J arrives before this step's integration, as the C++ coupler's impulse does before
     Bullet's tick. Applied after pybullet had already moved the body with this step's
@@ -54,7 +54,12 @@ collision shapes; refused), heightfields, concave triangle meshes (taken as thei
 pybullet's own damping (linearDamping / angularDamping, 0.04 by default: it still acts on
 the body; set it to 0 with changeDynamics for conservation checks). A body moved by
 resetBasePositionAndOrientation should also be given its velocity (resetBaseVelocity):
-the tissue sees a kinematic shape through its velocity.
+the tissue sees a kinematic shape through its velocity. Angular momentum about the origin
+is not kept exactly during contact: the scene moves a dynamic shape through its substeps,
+while J is applied where the centre of mass was at the step's start (as the C++ coupler
+applies it; 2.5 % of L0 in tests/python/test_pybullet_physics.py's thrown sphere).
+Slicers, needles and threads (the C++ coupler's addSlicer, addNeedle, addThread) are not
+coupled here yet.
 """
 
 import warnings
