@@ -58,8 +58,8 @@ the tissue sees a kinematic shape through its velocity. Angular momentum about t
 is not kept exactly during contact: the scene moves a dynamic shape through its substeps,
 while J is applied where the centre of mass was at the step's start (as the C++ coupler
 applies it; 2.5 % of L0 in tests/python/test_pybullet_physics.py's thrown sphere).
-Slicers, needles and threads (the C++ coupler's addSlicer, addNeedle, addThread) are not
-coupled here yet.
+Blades and needles fixed in a link are coupled (add_slicer, add_needle, as the C++
+coupler's addSlicer, addNeedle); threads (addThread) not yet.
 """
 
 import warnings
@@ -146,6 +146,14 @@ class _Link:
         return self.mode == "dynamic"
 
 
+class _Tool:
+    """A blade or needle fixed in a link: its frame in the link's centre-of-mass frame."""
+    __slots__ = ("body", "link", "kind", "id", "local", "feedback")
+
+    def __init__(self, body, link, kind, id, local, feedback):
+        self.body, self.link, self.kind, self.id, self.local, self.feedback = body, link, kind, id, local, feedback
+
+
 class Coupler:
     """Couples bodies and links of the pybullet world `client_id` to `scene`; call step()
     instead of p.stepSimulation(). The scene's gravity should be pybullet's (the first
@@ -159,6 +167,7 @@ class Coupler:
         self.scene = scene
         self.sdf_cell_size = sdf_cell_size
         self._links = []
+        self._tools = []
         self._gravity = self._world_gravity()
         self._gravity_checked = False
         self.last_dt = 0.0
@@ -280,8 +289,15 @@ class Coupler:
         return None
 
     def remove(self, body_id, link_index=None):
-        """Stops coupling a link (None: all of the body's coupled links); their shapes
-        leave the scene."""
+        """Stops coupling a link (None: all of the body's coupled links); their shapes,
+        blades and needles leave the scene."""
+        tools = []
+        for t in self._tools:
+            if t.body == body_id and (link_index is None or t.link == link_index):
+                (self.scene.remove_slicer if t.kind == "slicer" else self.scene.remove_curve)(t.id)
+            else:
+                tools.append(t)
+        self._tools = tools
         keep = []
         for l in self._links:
             if l.body == body_id and (link_index is None or l.link == link_index):
@@ -297,18 +313,60 @@ class Coupler:
             raise _invalid("Coupler.shape_of", f"body {body_id} link {link_index}", "not coupled")
         return self._links[k].shape
 
+    def add_slicer(self, body_id, link_index=-1, pose=((0, 0, 0), (0, 0, 0, 1)), **blade):
+        """Couples a link as a scalpel, as the C++ Coupler::addSlicer: a quad blade
+        (scene.add_quad_slicer's keywords: half_length, width, spine_radius, half_thickness,
+        friction) whose frame is `pose` (position, orientation (x, y, z, w)) in the link's
+        centre-of-mass frame. Every step the blade takes the link's motion, and a link with
+        mass receives what the tissue gave the blade (contact and the resistance to cutting)
+        as a force at the blade frame's origin and a torque. The link's collision shapes are
+        not coupled by this (add_body does that). Returns the SlicerId."""
+        return self._add_tool(body_id, link_index, pose, "slicer", self.scene.add_quad_slicer, blade)
+
+    def add_needle(self, body_id, link_index=-1, pose=((0, 0, 0), (0, 0, 0, 1)), **arc):
+        """Couples a link as a suture needle, as the C++ Coupler::addNeedle: an arc
+        (scene.add_arc's keywords: radius, start_angle, end_angle, wire_radius, friction,
+        puncture_force) whose frame is `pose` in the link's centre-of-mass frame. The needle
+        is kinematic in the scene, so the coupling is explicit: the link must be heavier
+        than the tissue it drags (see mpm_bullet/coupler.h). Returns the CurveId."""
+        return self._add_tool(body_id, link_index, pose, "needle", self.scene.add_arc, arc)
+
+    def _add_tool(self, body, link, pose, kind, add, desc):
+        n = _p.getNumJoints(body, physicsClientId=self.client)
+        if not -1 <= link < n:
+            raise _invalid(f"Coupler.add_{'slicer' if kind == 'slicer' else 'needle'} link_index", link,
+                           f"body {body} has links -1 (base) to {n - 1}")
+        local = (tuple(pose[0]), tuple(pose[1]))
+        tool = _Tool(body, link, kind, None, local, _p.getDynamicsInfo(body, link, physicsClientId=self.client)[0] > 0)
+        p, q, v, w = self._tool_state(tool, self._states(body, [link])[0])
+        tool.id = add(position=p, orientation=q, linear_velocity=v, angular_velocity=w, **desc)
+        self._tools.append(tool)
+        return tool.id
+
+    @staticmethod
+    def _tool_state(tool, state):
+        """The tool frame's pose and the velocities of its origin, from its link's state."""
+        com, orn, v, w = state
+        p, q = _p.multiplyTransforms(com, orn, *tool.local)
+        return p, q, tuple(np.add(v, np.cross(w, np.subtract(p, com)))), w
+
     def step(self):
         """One pybullet step with the tissue; see the module's docstring for the order."""
         params = _p.getPhysicsEngineParameters(physicsClientId=self.client)
         dt = params["fixedTimeStep"]
         gravity = (params["gravityAccelerationX"], params["gravityAccelerationY"], params["gravityAccelerationZ"])
-        bodies = {}
-        for l in self._links:
-            bodies.setdefault(l.body, []).append(l)
-        # 1. shapes take the links' poses and velocities
-        states = []
-        for body, links in bodies.items():
-            states += zip(links, self._states(body, [l.link for l in links]))
+        wanted = {}
+        for l in self._links + self._tools:
+            wanted.setdefault(l.body, set()).add(l.link)
+        now = {}  # (body, link) -> (centre of mass, orientation, linear and angular velocity)
+        for body, links in wanted.items():
+            links = sorted(links)
+            now.update(((body, l), s) for l, s in zip(links, self._states(body, links)))
+        # 1. shapes, blades and needles take the links' poses and velocities
+        states = [(l, now[l.body, l.link]) for l in self._links]
+        tools = [(t, self._tool_state(t, now[t.body, t.link])) for t in self._tools]
+        for t, s in tools:
+            (self.scene.set_slicer_state if t.kind == "slicer" else self.scene.set_curve_state)(t.id, *s)
         if not self._gravity_checked:  # a z-up pybullet world with the scene's default (0, -9.81, 0)?
             self._gravity_checked = True
             if not np.allclose(self.scene.gravity, gravity, rtol=1e-5, atol=1e-6):
@@ -335,6 +393,15 @@ class Coupler:
             _p.applyExternalForce(l.body, l.link, [float(j) / dt for j in linear], pos, _p.WORLD_FRAME,
                                   physicsClientId=self.client)
             _p.applyExternalTorque(l.body, l.link, [float(j) / dt for j in angular], _p.WORLD_FRAME,
+                                   physicsClientId=self.client)
+        # a blade's or needle's momentum, given about its frame's origin, goes there
+        for t, (pos, _, _, _) in tools:
+            if not t.feedback:
+                continue
+            linear, angular = (self.scene.slicer_impulse if t.kind == "slicer" else self.scene.curve_impulse)(t.id)
+            _p.applyExternalForce(t.body, t.link, [float(j) / dt for j in linear], pos, _p.WORLD_FRAME,
+                                  physicsClientId=self.client)
+            _p.applyExternalTorque(t.body, t.link, [float(j) / dt for j in angular], _p.WORLD_FRAME,
                                    physicsClientId=self.client)
         # 4. pybullet integrates with the tissue's push in
         _p.stepSimulation(physicsClientId=self.client)
