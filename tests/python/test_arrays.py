@@ -1,11 +1,15 @@
 """Particle fields as numpy arrays: the initial lattice and F = I known analytically, the
 arrays against the library's own per-object sums (ObjectSummary, computed in C++ in double
 from its particle state), out= filling the caller's array, and refusals of a wrong out=."""
+import json
+import pathlib
+import subprocess
+
 import numpy as np
 import pytest
 
 import mpm_bullet as mb
-from tissue_scenes import CENTER, HALF, SPACING, scene_with_block
+from tissue_scenes import CENTER, HALF, SPACING, block, scene_with_block, settings
 
 
 def lattice():
@@ -51,6 +55,33 @@ def test_arrays_agree_with_the_librarys_sums_after_steps():
     assert np.abs(x - (scene_with_block()[0].positions(obj))).max() > 1e-3
     assert v[:, 1].mean() < -0.05
     assert np.abs(F - np.eye(3, dtype=np.float32)).max() < 1e-6
+
+
+def test_arrays_equal_the_cpp_reads_of_the_same_scene_file(tmp_path):
+    # field_dump (tests/python/field_dump.cpp, built beside the package in the build tree)
+    # loads a scene file with the C++ loader, steps it and writes Scene::readPositions,
+    # readVelocities and readDeformationGradients; the module builds the same scene from the
+    # same dicts and steps it alike: every float equal
+    dump = pathlib.Path(mb._core.__file__).resolve().parent.parent / "field_dump"
+    if not dump.exists():
+        pytest.skip("field_dump is built with the tests in the build tree (not by pip install)")
+    tilted = block((0.2, 0.0, -0.1))
+    tilted.update({"primitive": "Sphere", "radius": 0.025, "angularVelocity": [0.0, 3.0, 1.0]})
+    objects = [block((0.1, 0.0, 0.0)), dict(tilted, center=[-0.04, 0.12, 0.0])]
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps({"settings": settings(), "objects": objects}))
+    dt, steps = 1 / 120, 5
+    raw = subprocess.run([str(dump), str(path), repr(dt), str(steps)], check=True, capture_output=True).stdout
+    cpp = np.frombuffer(raw, dtype=np.float32)
+
+    scene = mb.Scene(settings())
+    ids = [scene.add_object(o) for o in objects]
+    for _ in range(steps):
+        scene.step(dt)
+    ours = np.concatenate([a.ravel() for i in ids for a in
+                           (scene.positions(i), scene.velocities(i), scene.deformation_gradients(i))])
+    assert cpp.size == ours.size == 15 * sum(scene.particle_count(i) for i in ids)
+    np.testing.assert_array_equal(ours, cpp)
 
 
 def test_out_fills_the_callers_array():
