@@ -14,6 +14,7 @@ packages=(
   libcli11-dev                       # command-line parsing in demos and benchmarks
   nlohmann-json3-dev                 # scene and result files
   pybind11-dev                       # the Python module mpm_bullet (python/; pip install .)
+  python3-dev python3-venv           # its headers, and the virtual environments of pip install . and test.sh
   python3-jsonschema                 # the scene files' schema test (tests/scene_files)
   clang                              # libFuzzer for the loaders' fuzz targets (scripts/fuzz.sh)
 )
