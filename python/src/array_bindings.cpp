@@ -45,7 +45,7 @@ void bindArrays(SceneClass& c) {
   c.def(
       "positions",
       [](PyScene& s, ParticleObjectId id, py::handle out) {
-        s.scene.readPositions(id, s.vectors);
+        s.scene().readPositions(id, s.vectors);
         return copied(s.vectors, out, {0, 3});
       },
       py::arg("obj"), py::arg("out") = py::none(),
@@ -53,14 +53,14 @@ void bindArrays(SceneClass& c) {
   c.def(
       "velocities",
       [](PyScene& s, ParticleObjectId id, py::handle out) {
-        s.scene.readVelocities(id, s.vectors);
+        s.scene().readVelocities(id, s.vectors);
         return copied(s.vectors, out, {0, 3});
       },
       py::arg("obj"), py::arg("out") = py::none(), "Particle velocities [m/s], (N, 3) float32; out= as positions.");
   c.def(
       "deformation_gradients",
       [](PyScene& s, ParticleObjectId id, py::handle out) {
-        s.scene.readDeformationGradients(id, s.matrices);
+        s.scene().readDeformationGradients(id, s.matrices);
         return copied(s.matrices, out, {0, 3, 3});
       },
       py::arg("obj"), py::arg("out") = py::none(),

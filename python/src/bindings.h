@@ -18,11 +18,52 @@ namespace mpm::python {
 
 /// The scene behind mpm_bullet.Scene, with the buffers the array reads go through (kept,
 /// so reading every step allocates nothing once they have grown).
-struct PyScene {
-  explicit PyScene(const SceneSettings& settings) : scene(settings) {}
-  Scene scene;
+///
+/// Calls that let go of the GIL (step, advance, fetch_results, save, load, a mesh slicer)
+/// mark the scene in use (Released): while one runs, another Python thread's call on the
+/// same scene is refused with mpm_bullet.Error instead of racing it inside the library.
+/// The mark is read and written with the GIL held only.
+class PyScene {
+ public:
+  explicit PyScene(const SceneSettings& settings) : scene_(settings) {}
+  /// The scene, for a call that keeps the GIL.
+  Scene& scene() {
+    refuseWhileInUse();
+    return scene_;
+  }
+  const Scene& scene() const {
+    refuseWhileInUse();
+    return scene_;
+  }
   std::vector<Vec3f> vectors;
   std::vector<Mat3f> matrices;
+
+  /// Marks the scene in use, then lets go of the GIL; scene() is the scene within.
+  class Released {
+   public:
+    Released(PyScene& s, const char* call) : s_(s), mark_(s, call), release_() {}
+    Scene& scene() { return s_.scene_; }
+
+   private:
+    struct Mark {
+      Mark(PyScene& s, const char* call) : s(s) {
+        if (s.inUse_) throw Error(std::string("Scene.") + call + ": another thread is in a call on this scene");
+        s.inUse_ = true;
+      }
+      ~Mark() { s.inUse_ = false; }  // after release_ took the GIL back
+      PyScene& s;
+    };
+    PyScene& s_;
+    Mark mark_;
+    py::gil_scoped_release release_;
+  };
+
+ private:
+  void refuseWhileInUse() const {
+    if (inUse_) throw Error("mpm_bullet.Scene: another thread is stepping, saving or loading this scene");
+  }
+  Scene scene_;
+  bool inUse_ = false;
 };
 using SceneClass = py::class_<PyScene>;
 

@@ -90,84 +90,78 @@ void bindScene(py::module_&, SceneClass& c) {
         py::arg("settings") = py::none(),
         "Scene(settings: dict): the scene file's \"settings\" object (assets/scenes/scene.schema.json).");
 
-  c.def_property_readonly("time", [](const PyScene& s) { return s.scene.time(); }, "Simulated time [s].");
-  c.def_property_readonly("backend", [](const PyScene& s) { return backendName(s.scene.backend()); });
-  c.def_property_readonly("dx", [](const PyScene& s) { return s.scene.settings().dx; }, "Grid cell size [m].");
-  c.def_property_readonly("gravity", [](const PyScene& s) { return array(s.scene.settings().gravity); });
-  c.def("memory_bytes", [](const PyScene& s) { return s.scene.memoryBytes(); });
-  c.def("max_substep", [](PyScene& s) { return s.scene.maxSubstep(); }, "Longest substep allowed now [s].");
+  c.def_property_readonly("time", [](const PyScene& s) { return s.scene().time(); }, "Simulated time [s].");
+  c.def_property_readonly("backend", [](const PyScene& s) { return backendName(s.scene().backend()); });
+  c.def_property_readonly("dx", [](const PyScene& s) { return s.scene().settings().dx; }, "Grid cell size [m].");
+  c.def_property_readonly("gravity", [](const PyScene& s) { return array(s.scene().settings().gravity); });
+  c.def("memory_bytes", [](const PyScene& s) { return s.scene().memoryBytes(); });
+  c.def("max_substep", [](PyScene& s) { return s.scene().maxSubstep(); }, "Longest substep allowed now [s].");
 
   // objects
   c.def(
       "add_object",
       [](PyScene& s, py::dict desc) {
         const nlohmann::json j = toJson(desc, "object");
-        const sf::ObjectEntry e = sf::readObjectEntry(j, "object", ".", s.scene.settings().dx);
-        return sf::addObjectAt(s.scene, e.desc, "object");
+        const sf::ObjectEntry e = sf::readObjectEntry(j, "object", ".", s.scene().settings().dx);
+        return sf::addObjectAt(s.scene(), e.desc, "object");
       },
       py::arg("desc"),
       "Adds tissue from a scene file's objects[] entry (primitive, center, halfExtents, radius, "
       "material, ...; a mesh file is relative to the working directory). Returns its ObjectId.");
-  c.def("remove_object", [](PyScene& s, ParticleObjectId id) { s.scene.removeParticleObject(id); }, py::arg("obj"));
-  c.def("objects", [](const PyScene& s) { return s.scene.particleObjects(); }, "Live objects, in slot order.");
-  c.def("is_valid", [](const PyScene& s, ParticleObjectId id) { return s.scene.isValid(id); }, py::arg("obj"));
-  c.def("is_valid", [](const PyScene& s, ShapeId id) { return s.scene.isValid(id); }, py::arg("shape"));
-  c.def("is_valid", [](const PyScene& s, SlicerId id) { return s.scene.isValid(id); }, py::arg("slicer"));
-  c.def("is_valid", [](const PyScene& s, CurveId id) { return s.scene.isValid(id); }, py::arg("curve"));
+  c.def("remove_object", [](PyScene& s, ParticleObjectId id) { s.scene().removeParticleObject(id); }, py::arg("obj"));
+  c.def("objects", [](const PyScene& s) { return s.scene().particleObjects(); }, "Live objects, in slot order.");
+  c.def("is_valid", [](const PyScene& s, ParticleObjectId id) { return s.scene().isValid(id); }, py::arg("obj"));
+  c.def("is_valid", [](const PyScene& s, ShapeId id) { return s.scene().isValid(id); }, py::arg("shape"));
+  c.def("is_valid", [](const PyScene& s, SlicerId id) { return s.scene().isValid(id); }, py::arg("slicer"));
+  c.def("is_valid", [](const PyScene& s, CurveId id) { return s.scene().isValid(id); }, py::arg("curve"));
   c.def(
       "particle_count",
       [](const PyScene& s, std::optional<ParticleObjectId> id) {
-        return id ? s.scene.particleCount(*id) : s.scene.particleCount();
+        return id ? s.scene().particleCount(*id) : s.scene().particleCount();
       },
       py::arg("obj") = py::none(), "Live particles in the scene, or in one object.");
-  c.def("summary", [](const PyScene& s, ParticleObjectId id) { return summaryDict(s.scene.summary(id)); },
+  c.def("summary", [](const PyScene& s, ParticleObjectId id) { return summaryDict(s.scene().summary(id)); },
         py::arg("obj"), "Mass [kg], center_of_mass [m], momentum, angular_momentum, kinetic_energy of an object.");
 
   // stepping: the GIL is released while the solver runs
-  c.def("step", [](PyScene& s, float dt) { return s.scene.step(dt); }, py::arg("dt"),
-        py::call_guard<py::gil_scoped_release>(), "advance(dt) then fetch_results(); returns a StepReport.");
-  c.def("advance", [](PyScene& s, float dt) { s.scene.advance(dt); }, py::arg("dt"),
-        py::call_guard<py::gil_scoped_release>(),
+  c.def("step", [](PyScene& s, float dt) { return PyScene::Released(s, "step").scene().step(dt); }, py::arg("dt"),
+        "advance(dt) then fetch_results(); returns a StepReport.");
+  c.def("advance", [](PyScene& s, float dt) { PyScene::Released(s, "advance").scene().advance(dt); }, py::arg("dt"),
         "Starts advancing by dt [s] on the scene's worker; change nothing until fetch_results().");
-  c.def("fetch_results", [](PyScene& s) { return s.scene.fetchResults(); },
-        py::call_guard<py::gil_scoped_release>(), "Waits for the advance; raises its error.");
+  c.def("fetch_results", [](PyScene& s) { return PyScene::Released(s, "fetch_results").scene().fetchResults(); },
+        "Waits for the advance; raises its error.");
 
   // checkpoints
   c.def(
-      "save", [](const PyScene& s, const std::string& path, py::bytes attachment) {
+      "save", [](PyScene& s, const std::string& path, py::bytes attachment) {
         const std::vector<uint8_t> a = toBytes(attachment);
-        py::gil_scoped_release release;
-        s.scene.save(path, a);
+        PyScene::Released(s, "save").scene().save(path, a);
       },
       py::arg("path"), py::arg("attachment") = py::bytes(), "Writes the whole scene to a file (with your attachment).");
   c.def(
       "load", [](PyScene& s, const std::string& path) {
-        std::vector<uint8_t> a;
-        {
-          py::gil_scoped_release release;
-          a = s.scene.load(path);
-        }
+        const std::vector<uint8_t> a = PyScene::Released(s, "load").scene().load(path);
         return fromBytes(a);
       },
       py::arg("path"), "Replaces the scene's state with a file's; returns its attachment.");
   c.def(
-      "save_bytes", [](const PyScene& s, py::bytes attachment) { return fromBytes(s.scene.saveToMemory(toBytes(attachment))); },
+      "save_bytes", [](const PyScene& s, py::bytes attachment) { return fromBytes(s.scene().saveToMemory(toBytes(attachment))); },
       py::arg("attachment") = py::bytes(), "The checkpoint as bytes.");
   c.def(
-      "load_bytes", [](PyScene& s, py::bytes checkpoint) { return fromBytes(s.scene.loadFromMemory(toBytes(checkpoint))); },
+      "load_bytes", [](PyScene& s, py::bytes checkpoint) { return fromBytes(s.scene().loadFromMemory(toBytes(checkpoint))); },
       py::arg("checkpoint"), "Replaces the scene's state with a checkpoint's; returns its attachment.");
   c.def(
-      "attachment_of", [](const PyScene& s, py::bytes checkpoint) { return fromBytes(s.scene.attachmentOf(toBytes(checkpoint))); },
+      "attachment_of", [](const PyScene& s, py::bytes checkpoint) { return fromBytes(s.scene().attachmentOf(toBytes(checkpoint))); },
       py::arg("checkpoint"), "The attachment of a checkpoint, checked as load_bytes checks it, not loaded.");
 
   c.def("timings", [](const PyScene& s) {
-    const StageTimings t = s.scene.timings();
+    const StageTimings t = s.scene().timings();
     py::dict d;
     d["sort"] = t.sort, d["p2g"] = t.p2g, d["grid_update"] = t.gridUpdate, d["contact"] = t.contact, d["g2p"] = t.g2p;
     d["substeps"] = t.substeps;
     return d;
   }, "Seconds per named stage since reset_timings().");
-  c.def("reset_timings", [](PyScene& s) { s.scene.resetTimings(); });
+  c.def("reset_timings", [](PyScene& s) { s.scene().resetTimings(); });
 }
 
 }  // namespace mpm::python

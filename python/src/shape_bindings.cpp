@@ -113,7 +113,7 @@ void bindShapes(SceneClass& c) {
          py::handle contact) {
         ShapeDesc d;
         for (size_t i = 0; i < parts.size(); ++i)
-          d.parts.push_back(readPart(parts[i], "parts[" + std::to_string(i) + "]", s.scene.settings().dx));
+          d.parts.push_back(readPart(parts[i], "parts[" + std::to_string(i) + "]", s.scene().settings().dx));
         const ShapeState st = toState(position, orientation, linearVelocity, angularVelocity);
         d.pose = st.pose;
         d.linearVelocity = st.linearVelocity;
@@ -123,7 +123,7 @@ void bindShapes(SceneClass& c) {
         d.inertia = toVec3(inertia, "inertia");
         d.gravity = toVec3(gravity, "gravity");
         d.contact = readContact(contact);
-        return s.scene.addShape(d);
+        return s.scene().addShape(d);
       },
       py::arg("parts"), py::arg("position") = py::make_tuple(0, 0, 0), py::arg("orientation") = py::make_tuple(0, 0, 0, 1),
       py::arg("linear_velocity") = py::make_tuple(0, 0, 0), py::arg("angular_velocity") = py::make_tuple(0, 0, 0),
@@ -132,18 +132,18 @@ void bindShapes(SceneClass& c) {
       py::arg("contact") = py::none(),
       "Adds a rigid shape from part dicts (box, sphere, capsule, cylinder, plane, mesh). mass 0: kinematic. "
       "contact: {mode: frictional|sticky|bonded, friction, drag, band}. Returns its ShapeId.");
-  c.def("remove_shape", [](PyScene& s, ShapeId id) { s.scene.removeShape(id); }, py::arg("shape"));
+  c.def("remove_shape", [](PyScene& s, ShapeId id) { s.scene().removeShape(id); }, py::arg("shape"));
   c.def(
       "set_shape_state",
       [](PyScene& s, ShapeId id, py::handle p, py::handle q, py::handle v, py::handle w) {
-        s.scene.setShapeState(id, toState(p, q, v, w));
+        s.scene().setShapeState(id, toState(p, q, v, w));
       },
       py::arg("shape"), py::arg("position"), py::arg("orientation"), py::arg("linear_velocity") = py::make_tuple(0, 0, 0),
       py::arg("angular_velocity") = py::make_tuple(0, 0, 0),
       "Pose (orientation x, y, z, w) and velocities before an advance; the shape moves on with them.");
-  c.def("shape_state", [](const PyScene& s, ShapeId id) { return stateTuple(s.scene.shapeState(id)); },
+  c.def("shape_state", [](const PyScene& s, ShapeId id) { return stateTuple(s.scene().shapeState(id)); },
         py::arg("shape"), "(position, orientation (x, y, z, w), linear_velocity, angular_velocity) after the last advance.");
-  c.def("shape_impulse", [](const PyScene& s, ShapeId id) { return impulseTuple(s.scene.shapeImpulse(id)); },
+  c.def("shape_impulse", [](const PyScene& s, ShapeId id) { return impulseTuple(s.scene().shapeImpulse(id)); },
         py::arg("shape"),
         "(linear [N s], angular [N m s]) the grid gave the shape over the last advance, world frame, about its centre of mass.");
 }

@@ -31,7 +31,7 @@ void bindTools(SceneClass& c) {
         d.halfThickness = halfThickness, d.friction = friction;
         const ShapeState st = toState(p, q, v, w);
         d.pose = st.pose, d.linearVelocity = st.linearVelocity, d.angularVelocity = st.angularVelocity;
-        return s.scene.addSlicer(d);
+        return s.scene().addSlicer(d);
       },
       py::arg("half_length") = quad.halfLength, py::arg("width") = quad.width, py::arg("spine_radius") = quad.spineRadius,
       py::arg("half_thickness") = quad.halfThickness, py::arg("friction") = quad.friction, py::arg("position") = zero,
@@ -50,25 +50,24 @@ void bindTools(SceneClass& c) {
         d.sampleSpacing = sampleSpacing;
         const ShapeState st = toState(p, q, v, w);
         d.pose = st.pose, d.linearVelocity = st.linearVelocity, d.angularVelocity = st.angularVelocity;
-        py::gil_scoped_release release;  // samples the blade's distance
-        return s.scene.addSlicer(d);
+        return PyScene::Released(s, "add_mesh_slicer").scene().addSlicer(d);  // samples the blade's distance
       },
       py::arg("vertices"), py::arg("triangles"), py::arg("spine_from") = zero, py::arg("spine_to") = zero,
       py::arg("spine_radius") = meshBlade.spineRadius, py::arg("half_thickness") = meshBlade.halfThickness,
       py::arg("friction") = meshBlade.friction, py::arg("sample_spacing") = meshBlade.sampleSpacing,
       py::arg("position") = zero, py::arg("orientation") = identity, py::arg("linear_velocity") = zero,
       py::arg("angular_velocity") = zero, "A curved blade from an open, consistently oriented triangle mesh.");
-  c.def("remove_slicer", [](PyScene& s, SlicerId id) { s.scene.removeSlicer(id); }, py::arg("slicer"));
+  c.def("remove_slicer", [](PyScene& s, SlicerId id) { s.scene().removeSlicer(id); }, py::arg("slicer"));
   c.def(
       "set_slicer_state",
       [](PyScene& s, SlicerId id, py::handle p, py::handle q, py::handle v, py::handle w) {
-        s.scene.setSlicerState(id, toState(p, q, v, w));
+        s.scene().setSlicerState(id, toState(p, q, v, w));
       },
       py::arg("slicer"), py::arg("position"), py::arg("orientation"), py::arg("linear_velocity") = zero,
       py::arg("angular_velocity") = zero);
-  c.def("slicer_state", [](const PyScene& s, SlicerId id) { return stateTuple(s.scene.slicerState(id)); },
+  c.def("slicer_state", [](const PyScene& s, SlicerId id) { return stateTuple(s.scene().slicerState(id)); },
         py::arg("slicer"));
-  c.def("slicer_impulse", [](const PyScene& s, SlicerId id) { return impulseTuple(s.scene.slicerImpulse(id)); },
+  c.def("slicer_impulse", [](const PyScene& s, SlicerId id) { return impulseTuple(s.scene().slicerImpulse(id)); },
         py::arg("slicer"), "(linear, angular) the material gave the blade, about its frame's origin.");
 
   // --- curves
@@ -82,7 +81,7 @@ void bindTools(SceneClass& c) {
         d.friction = friction, d.punctureForce = punctureForce;
         const ShapeState st = toState(p, q, v, w);
         d.pose = st.pose, d.linearVelocity = st.linearVelocity, d.angularVelocity = st.angularVelocity;
-        return s.scene.addCurve(d);
+        return s.scene().addCurve(d);
       },
       py::arg("radius") = arc.radius, py::arg("start_angle") = arc.startAngle, py::arg("end_angle") = arc.endAngle,
       py::arg("wire_radius") = arc.wireRadius, py::arg("friction") = arc.friction,
@@ -99,42 +98,42 @@ void bindTools(SceneClass& c) {
         d.velocities = optionalPoints(velocities, "velocities");
         d.radius = radius, d.friction = friction, d.drag = drag, d.linearDensity = linearDensity;
         d.gravity = toVec3(gravity, "gravity");
-        return s.scene.addCurve(d);
+        return s.scene().addCurve(d);
       },
       py::arg("points"), py::arg("velocities") = py::none(), py::arg("radius") = thread.radius,
       py::arg("friction") = thread.friction, py::arg("drag") = thread.drag,
       py::arg("linear_density") = thread.linearDensity, py::arg("gravity") = zero,
       "A thread: the polyline through points (N, 3) [m]; linear_density 0: kinematic segments.");
-  c.def("remove_curve", [](PyScene& s, CurveId id) { s.scene.removeCurve(id); }, py::arg("curve"));
+  c.def("remove_curve", [](PyScene& s, CurveId id) { s.scene().removeCurve(id); }, py::arg("curve"));
   c.def(
       "set_curve_state",
       [](PyScene& s, CurveId id, py::handle p, py::handle q, py::handle v, py::handle w) {
-        s.scene.setCurveState(id, toState(p, q, v, w));
+        s.scene().setCurveState(id, toState(p, q, v, w));
       },
       py::arg("curve"), py::arg("position"), py::arg("orientation"), py::arg("linear_velocity") = zero,
       py::arg("angular_velocity") = zero, "A needle's pose and velocities before an advance.");
-  c.def("curve_state", [](const PyScene& s, CurveId id) { return stateTuple(s.scene.curveState(id)); },
+  c.def("curve_state", [](const PyScene& s, CurveId id) { return stateTuple(s.scene().curveState(id)); },
         py::arg("curve"));
   c.def(
       "set_curve_points",
       [](PyScene& s, CurveId id, py::handle points, py::handle velocities) {
-        s.scene.setCurvePoints(id, toPoints(points, "points"), optionalPoints(velocities, "velocities"));
+        s.scene().setCurvePoints(id, toPoints(points, "points"), optionalPoints(velocities, "velocities"));
       },
       py::arg("curve"), py::arg("points"), py::arg("velocities") = py::none(),
       "A thread's points and their velocities (N, 3) before an advance.");
-  c.def("curve_impulse", [](const PyScene& s, CurveId id) { return impulseTuple(s.scene.curveImpulse(id)); },
+  c.def("curve_impulse", [](const PyScene& s, CurveId id) { return impulseTuple(s.scene().curveImpulse(id)); },
         py::arg("curve"));
   c.def(
       "segment_impulses",
       [](const PyScene& s, CurveId id) {
-        const std::vector<ShapeImpulse> v = s.scene.segmentImpulses(id);
+        const std::vector<ShapeImpulse> v = s.scene().segmentImpulses(id);
         py::array_t<float> a(std::vector<py::ssize_t>{(py::ssize_t)v.size(), 2, 3});
         static_assert(sizeof(ShapeImpulse) == 6 * sizeof(float), "two packed Vec3f");
         if (!v.empty()) std::memcpy(a.mutable_data(), v.data(), v.size() * sizeof(ShapeImpulse));
         return a;
       },
       py::arg("curve"), "(n, 2, 3): each segment's (linear, angular) impulse, about its midpoint.");
-  c.def("tip_inside", [](const PyScene& s, CurveId id) { return s.scene.tipInside(id); }, py::arg("curve"));
+  c.def("tip_inside", [](const PyScene& s, CurveId id) { return s.scene().tipInside(id); }, py::arg("curve"));
 }
 
 }  // namespace mpm::python

@@ -181,7 +181,8 @@ def test_slicers_and_curves():
 
 def test_step_releases_the_gil():
     # while one thread steps, another runs Python: it counts many iterations only if the
-    # stepping thread let go of the interpreter (holding it, the counter would stop at ~0)
+    # stepping thread let go of the interpreter (holding it, the counter would stop at ~0);
+    # its call on the same scene meanwhile is refused, not raced
     scene, obj = scene_with_block(substeps={"fixedSubsteps": 400})
     started = threading.Event()
 
@@ -192,8 +193,17 @@ def test_step_releases_the_gil():
     t = threading.Thread(target=work)
     t.start()
     started.wait()
-    count = 0
+    count, refused, inside = 0, None, False
     while t.is_alive():
         count += 1
+        if count == 1000:  # the step is still running: a call on the scene must wait its turn
+            try:
+                scene.positions(obj)
+            except mb.Error as e:
+                refused = str(e)
+            inside = t.is_alive()
     t.join()
     assert count > 1000, count
+    if inside:
+        assert refused == "mpm_bullet.Scene: another thread is stepping, saving or loading this scene"
+    assert scene.positions(obj).shape == (216, 3)  # and once it is done, it answers
