@@ -62,6 +62,7 @@ ASAN_EXCLUDE+="|FreeFall\\.CentreOfMassFollowsParabola/PbMpm"        # 74 s
 ASAN_EXCLUDE+="|Conservation\\.LinearMomentumOver1000Substeps/PbMpm" # 44 s
 ASAN_EXCLUDE+="|Walls\\.QuarterModelOnMirrorPlanesMovesAsTheWholeBody/(StandardMpm|PbMpm)"  # > 25, 16 s (MLS-MPM's, 24 s, runs)
 ASAN_EXCLUDE+="|Contact\\.FarShapesChangeNothingAndNearOnesStillAct/Cpu_PbMpm"  # 24 s
+ASAN_EXCLUDE+="|AddedMassLetsAPulledThreadDrawTheTissue"            # 36 s in Release
 ASAN_EXCLUDE+="|ThreadDrawnThroughTissue"                          # 55-65 s each (Sideways: fastest point 0.0385 m/s there, above its 2x bound: open, README Limits)
 ASAN_EXCLUDE+="|ShapeContact\\.RestingBoxIsHeldByItsWeight"          # > 25 s
 ASAN_EXCLUDE+="|PbMpm\\.(StiffnessRisesWithIterations|LongRunAtLargeStepStaysBounded)"  # 21, > 25 s

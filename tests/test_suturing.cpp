@@ -302,6 +302,57 @@ double meanThreadForce(Scene& scene, CurveId id, Vec3f v, int frames, float dt) 
   return sum;
 }
 
+// Scene::segmentContactMasses: a kinematic thread of 8 segments lying at rest in a block
+// (off the node lines: 0.4 and 0.44 dx), its last two segments beyond the block's end. Each
+// node within the contact band (0.75 dx of the centre line) is held by its nearest segment
+// only, and inside a uniform block a node carries rho dx^3 (2 x 2 x 2 particles a cell,
+// the quadratic B-spline's partition of unity): the segments' contact masses sum to the
+// band's node count times rho dx^3 (1e-4), those outside the material hold nothing, and all
+// are zero before the first advance.
+TEST(Suturing, SegmentContactMassesAreTheNodesTheyHold) {
+  Scene scene(settingsFor(SolverType::MlsMpm));
+  ParticleObjectDesc slab = block();
+  slab.halfExtents = {0.015f, 0.01f, 0.01f};
+  slab.center = {0.f, 0.01f, 0.f};  // x in [-15, 15] mm
+  scene.addParticleObject(slab);
+  LineSegmentsDesc t;
+  for (int i = 0; i <= 8; ++i) t.points.push_back({-0.01f + kDx * i + (i >= 7 ? 0.01f : 0.f), 0.011f, 0.0011f});
+  // points 7 and 8 jump 1 cm: segment 6 runs out of the block, 7 lies outside it (x 27.5-30 mm)
+  t.points[7].x = 0.0275f;
+  t.points[8].x = 0.03f;
+  const CurveId id = scene.addCurve(t);
+  for (float m : scene.segmentContactMasses(id)) EXPECT_EQ(m, 0.f);
+  scene.step(1e-3f);
+  const std::vector<float> Mc = scene.segmentContactMasses(id);
+  ASSERT_EQ(Mc.size(), 8u);
+  // the nodes within the band whose nearest segment is one of 0-5 (all in the block's interior)
+  auto distanceToSegment = [](Vec3f x, Vec3f a, Vec3f b) {
+    const Vec3f ab = b - a;
+    const float u = std::clamp(dot(x - a, ab) / dot(ab, ab), 0.f, 1.f);
+    return norm(x - (a + u * ab));
+  };
+  int held = 0;
+  for (int i = -8; i <= 14; ++i)
+    for (int j = 0; j <= 8; ++j)
+      for (int k = -4; k <= 4; ++k) {
+        const Vec3f x{i * kDx, j * kDx, k * kDx};
+        float d = 1.f;
+        size_t nearest = 0;
+        for (size_t s = 0; s + 1 < t.points.size(); ++s) {
+          const float ds = distanceToSegment(x, t.points[s], t.points[s + 1]);
+          if (ds < d) d = ds, nearest = s;  // a tie goes to the earlier segment
+        }
+        if (d < 0.75f * kDx && nearest <= 5) ++held;  // segments 0-5: nodes inside, x <= 5 mm
+      }
+  const double node = 1000.0 * kDx * kDx * kDx, inside = Mc[0] + Mc[1] + Mc[2] + Mc[3] + Mc[4] + Mc[5];
+  std::printf("contact masses (1e-5 kg): ");
+  for (float m : Mc) std::printf("%.3f ", m * 1e5);
+  std::printf("; segments 0-5 hold %.4e kg, %d band nodes x rho dx^3 = %.4e kg\n", inside, held, held * node);
+  EXPECT_NEAR(inside, held * node, 1e-4 * held * node);
+  EXPECT_EQ(Mc[7], 0.f) << "outside the material";
+  EXPECT_GT(Mc[0], 2.f * node) << "a segment inside holds its nodes";
+}
+
 // A thread through the block slides along itself and drags the material sideways, at the
 // same speed (5 mm/s over 1.5 mm); it does not cut it.
 TEST(Suturing, ThreadSlidesAlongItselfDragsSideways) {

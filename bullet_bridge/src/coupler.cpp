@@ -82,7 +82,33 @@ struct Coupler::ThreadLink {
   CurveId curve;
   bool dynamic;
   std::vector<btVector3> force, torque;  ///< per segment: applied over the current tick
+  bool addedMass = false;
+  std::vector<btScalar> mass;            ///< per segment: the link's own (added mass)
+  std::vector<btVector3> inertia;        ///< per segment: the link's own principal moments
+  std::vector<btVector3> velocity;       ///< per segment: its midpoint's, as given to the advance before
+  std::vector<btVector3> advanced;       ///< per segment: its midpoint's, as given to this advance
 };
+
+namespace {
+/// Segment s's (0: the base) mass and principal moments in Bullet.
+void setSegmentMass(btMultiBody* mb, int s, btScalar m, const btVector3& I) {
+  if (s == 0) {
+    mb->setBaseMass(m);
+    mb->setBaseInertia(I);
+  } else {
+    mb->getLink(s - 1).m_mass = m;  // Bullet 3.24 has no setter; the articulated solve reads both each tick
+    mb->getLink(s - 1).m_inertiaLocal = I;
+  }
+}
+
+/// Each segment's midpoint velocity from its points'.
+std::vector<btVector3> segmentVelocities(const btMultiBody* thread) {
+  const std::vector<btVector3> v = threadPointVelocities(thread);
+  std::vector<btVector3> out(v.size() - 1);
+  for (size_t s = 0; s + 1 < v.size(); ++s) out[s] = 0.5f * (v[s] + v[s + 1]);
+  return out;
+}
+}  // namespace
 
 // CouplingContact repeats ContactParams' fields but friction: a field added there must be
 // added here too
@@ -314,12 +340,22 @@ CurveId Coupler::addThread(btMultiBody* thread, const ThreadCoupling& options) {
     if (!(mass > 0))
       throw InvalidArgument("ThreadCoupling.dynamic", "true",
                             "the thread needs mass in its links; couple it with dynamic = false");
-    d.linearDensity = (float)(mass / length);
+    d.linearDensity = options.addedMass ? 0.f : (float)(mass / length);  // added mass: kinematic in the scene
     d.gravity = toVec(world_->getGravity());
+  } else if (options.addedMass) {
+    throw InvalidArgument("ThreadCoupling.addedMass", "true", "needs dynamic = true (the tissue's push on the links)");
   }
   ThreadLink link{thread, scene_.addCurve(d), options.dynamic, {}, {}};  // validates the thread
   link.force.assign((size_t)n, btVector3(0, 0, 0));
   link.torque.assign((size_t)n, btVector3(0, 0, 0));
+  if (options.addedMass) {
+    link.addedMass = true;
+    for (int s = 0; s < n; ++s) {
+      link.mass.push_back(s == 0 ? thread->getBaseMass() : thread->getLink(s - 1).m_mass);
+      link.inertia.push_back(s == 0 ? thread->getBaseInertia() : thread->getLink(s - 1).m_inertiaLocal);
+    }
+    link.velocity = segmentVelocities(thread);
+  }
   threads_.push_back(link);
   return link.curve;
 }
@@ -336,6 +372,7 @@ void Coupler::removeThread(const btMultiBody* thread) {
       ThreadLink& t = threads_[i];
       for (size_t s = 0; s < t.force.size(); ++s)
         if (!t.force[s].isZero() || !t.torque[s].isZero()) addLinkForce(t.thread, (int)s - 1, -t.force[s], -t.torque[s]);
+      for (size_t s = 0; s < t.mass.size(); ++s) setSegmentMass(t.thread, (int)s, t.mass[s], t.inertia[s]);
       scene_.removeCurve(t.curve);
       threads_.erase(threads_.begin() + (long)i);
       return;
@@ -589,8 +626,10 @@ void Coupler::tick(float dt) {
   }
   for (const SlicerLink& l : slicers_) scene_.setSlicerState(l.slicer, l.frame.state());
   for (const NeedleLink& l : needles_) scene_.setCurveState(l.curve, l.frame.state());
-  for (const ThreadLink& t : threads_)
+  for (ThreadLink& t : threads_) {
     scene_.setCurvePoints(t.curve, toVecs(threadPoints(t.thread)), toVecs(threadPointVelocities(t.thread)));
+    if (t.addedMass) t.advanced = segmentVelocities(t.thread);
+  }
   // 2. the tissue advances over the tick with its own substeps
   scene_.step(dt);
   // 3. the momentum the grid gave each shape goes back to its body
@@ -621,6 +660,27 @@ void Coupler::tick(float dt) {
       throw InvalidArgument("Coupler thread", std::to_string(J.size()) + " segment impulses",
                             "expected one per segment, " + std::to_string(t.force.size()));
     const std::vector<btVector3> p = threadPoints(t.thread);
+    if (t.addedMass) {
+      // the segment's velocity in this advance, and the nodes it held: J = F dt - M_c dv_n,
+      // where dv_n is the segment's change of velocity across itself since the advance
+      // before (the held nodes followed it); Bullet's added mass M_c carries that part
+      const std::vector<float> Mc = scene_.segmentContactMasses(t.curve);
+      for (size_t s = 0; s < J.size(); ++s) {
+        const btVector3 along = (p[s + 1] - p[s]).normalized();
+        const btVector3 dv = t.advanced[s] - t.velocity[s];
+        const btVector3 push = toBt(J[s].linear) + Mc[s] * (dv - along * along.dot(dv));
+        const btScalar scale = (t.mass[s] + Mc[s]) / t.mass[s];
+        setSegmentMass(t.thread, (int)s, t.mass[s] * scale, t.inertia[s] * scale);
+        const btVector3 lever = 0.5f * (p[s] + p[s + 1]) - threadSegmentTransform(t.thread, (int)s).getOrigin();
+        // no torque of the tissue's own: a segment's turn is its chain's (settleBodyVelocity)
+        t.force[s] = push / dt;
+        t.torque[s] = lever.cross(push) / dt;
+        addLinkForce(t.thread, (int)s - 1, t.force[s], t.torque[s]);
+      }
+      t.velocity = t.advanced;
+      t.thread->wakeUp();
+      continue;
+    }
     for (size_t s = 0; s < J.size(); ++s) {
       const btVector3 mid = 0.5f * (p[s] + p[s + 1]);
       const btVector3 lever = mid - threadSegmentTransform(t.thread, (int)s).getOrigin();

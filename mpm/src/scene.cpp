@@ -558,6 +558,11 @@ std::vector<ShapeImpulse> Scene::segmentImpulses(CurveId id) const {
   if (c.needle) return {curveImpulse(id)};
   return c.impulses;
 }
+std::vector<float> Scene::segmentContactMasses(CurveId id) const {
+  const CurveRecord& c = impl_->idleRecord(impl_->curves, id, "segmentContactMasses");
+  if (c.contactMasses.size() != c.bodyCount()) return std::vector<float>(c.bodyCount(), 0.f);
+  return c.contactMasses;
+}
 bool Scene::tipInside(CurveId id) const { return impl_->curveOfKind(id, true, "tipInside").tipInside; }
 
 }  // namespace mpm

@@ -95,6 +95,19 @@ struct ThreadCoupling {
   /// segment's impulse goes back to its link as a force over the tick. false: kinematic
   /// segments, one-way (the thread pushes the tissue; its links get nothing back).
   bool dynamic = true;
+  /// With `dynamic`: the added-mass coupling, in which the tissue holds the thread with its
+  /// whole resistance. The scene's segments are kinematic (the nodes round a segment move
+  /// with it across itself), and each link carries in Bullet, besides its own mass, the
+  /// mass of the nodes its segment held in the last advance (Scene::segmentContactMasses;
+  /// its inertia scaled alike), so Bullet's joints and pins, solving the chain, move that
+  /// tissue too. The force on the link over the tick is the segment's impulse less the part
+  /// that brought those nodes to the segment's change of velocity across itself (counted
+  /// once, by the added mass): the tissue's elastic push and its drag. Without it a dynamic
+  /// segment's link receives only the segment's own momentum change, so the tissue holds it
+  /// with at most m v_rel / dt: a light thread passes through the tissue when pulled
+  /// (tests/test_suturing_bullet.cpp, PullingTheStitch). The links' masses are the thread's
+  /// own again after removeThread.
+  bool addedMass = false;
 };
 
 /// Contact settings and sampling for a coupled body.

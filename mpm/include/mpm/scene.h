@@ -145,6 +145,10 @@ class Scene {
   ShapeImpulse curveImpulse(CurveId id) const;
   /// A thread's impulse per segment, each about its segment's midpoint (a needle: one).
   std::vector<ShapeImpulse> segmentImpulses(CurveId id) const;
+  /// Per segment of a thread (a needle: its wire and its tip), the mean mass of the grid
+  /// nodes held by it over the last advance [kg]: the tissue that moves with it across
+  /// itself (Coupler's added-mass thread coupling). Zeros before the first advance.
+  std::vector<float> segmentContactMasses(CurveId id) const;
   /// Whether a needle's tip is inside the material (broke in and has not come out since).
   bool tipInside(CurveId id) const;
 

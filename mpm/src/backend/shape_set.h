@@ -37,10 +37,14 @@ struct PredictBodies {
 struct SettleBodies {
   BodyView* bodies;
   const ContactSums* sums;
-  ContactSums* record;  ///< momentum exchanged, summed over the substeps of an advance
+  /// momentum exchanged, summed over the substeps of an advance; `mass`: the time integral
+  /// of the applying pass's contact mass [kg s] (a needle's tip inside adds the material's
+  /// presence ahead of it to its own body's, ParticleGridSystem::takeImpulses)
+  ContactSums* record;
   MPM_HD void operator()(size_t i) const {
     const Vec3f H = settleBodyVelocity(bodies[i], sums[i]);
     for (int k = 0; k < 3; ++k) record[i].impulse[k] += sums[i].impulse[k];
+    record[i].mass += sums[i].mass * bodies[i].substepDt;
     record[i].angular[0] += H.x;
     record[i].angular[1] += H.y;
     record[i].angular[2] += H.z;

@@ -140,7 +140,11 @@ void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, CurveTable& curves
     if (!curves.alive(i) || b < 0) continue;
     CurveRecord& c = curves[i];
     c.impulses.resize(c.bodyCount());
-    for (size_t k = 0; k < c.bodyCount(); ++k) c.impulses[k] = impulseOf(impulses[b + k]);
+    c.contactMasses.resize(c.bodyCount());
+    for (size_t k = 0; k < c.bodyCount(); ++k) {
+      c.impulses[k] = impulseOf(impulses[b + k]);
+      c.contactMasses[k] = dt > 0.f ? impulses[b + k].mass / dt : 0.f;
+    }
     if (!c.needle) continue;
     readPose(bodies[b], c.state.pose);  // kinematic: it moved on with its velocity
     updateTip(c, impulses[b + 1], dt);

@@ -40,6 +40,9 @@ struct CurveRecord {
   /// Per body: a needle's wire and tip, a thread's segments; about each body's centre (a
   /// needle's frame origin, a segment's midpoint)
   std::vector<ShapeImpulse> impulses;
+  /// Per body: the mean mass of the grid nodes in contact over the last advance [kg]
+  /// (not kept in checkpoints: empty until the next advance)
+  std::vector<float> contactMasses;
   size_t bodyCount() const { return needle ? 2 : thread.points.size() - 1; }
 };
 using CurveTable = SlotTable<CurveRecord, CurveId>;

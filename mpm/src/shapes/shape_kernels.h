@@ -284,7 +284,12 @@ MPM_HD bool contactNodeCurve(Vec3f x, float mass, Vec3f& v, const PartView& part
   Vec3f vNew = inBand ? curveVelocity(v, vRigid, t, b) : v;
   if (!beyond) vNew = needleShaftFriction(vNew, vRigid, t, rho, part, b.substepDt);
   const Vec3f dp = mass * (v - vNew);
-  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) return false;
+  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) {
+    // a band node already moving with the curve is still held by it: its mass counts in
+    // the contact mass the applying pass records (Scene::segmentContactMasses)
+    if (pass == 1 && inBand) sums.mass += mass;
+    return false;
+  }
   addContact(sums, dp, c - b.com, mass);
   if (pass == 1) v = vNew;
   return true;
