@@ -15,6 +15,7 @@
 #include "mpm/scene.h"
 #include "shapes/shape_builder.h"
 #include "shapes/shape_kernels.h"
+#include "wound_gap.h"
 
 namespace mpm {
 namespace {
@@ -517,19 +518,6 @@ std::vector<Vec3f> stitch(float x) {
   return p;
 }
 
-/// Width of the gap between two blocks' facing surfaces over their upper half [m].
-float gapWidth(const Scene& scene, ParticleObjectId left, ParticleObjectId right) {
-  std::vector<Vec3f> a, b;
-  scene.readPositions(left, a);
-  scene.readPositions(right, b);
-  float inner = -1.f, outer = 1.f;
-  for (const Vec3f& x : a)
-    if (x.y > 0.01f) inner = std::max(inner, x.x);
-  for (const Vec3f& x : b)
-    if (x.y > 0.01f) outer = std::min(outer, x.x);
-  return outer - inner;
-}
-
 // A stitch tightened (seed 000 Fig. 12): two blocks 6 mm apart, glued at their bases, a
 // thread loop through both 5 mm from their facing sides, its legs drawn toward each other
 // at 1 cm/s by 7 mm (the loop's bottom slides along itself, the legs drag the tissue): the
@@ -549,7 +537,7 @@ TEST(Suturing, TighteningAStitchClosesTheGap) {
     t.points = stitch(0.008f);
     t.radius = 0.125e-3f;
     const CurveId id = scene.addCurve(t);
-    const float gap0 = gapWidth(scene, left, right);
+    const float gap0 = test::woundGap(scene, left, right);
     const float dt = 0.01f, speed = 0.01f;
     for (int frame = 0; frame < 70; ++frame) {
       const std::vector<Vec3f> from = stitch(0.008f - speed * dt * frame), to = stitch(0.008f - speed * dt * (frame + 1));
@@ -558,7 +546,7 @@ TEST(Suturing, TighteningAStitchClosesTheGap) {
       scene.setCurvePoints(id, from, v);
       scene.step(dt);
     }
-    const float gap = gapWidth(scene, left, right);
+    const float gap = test::woundGap(scene, left, right);
     std::printf("%s: gap %.2f mm -> %.2f mm\n", solver == SolverType::MlsMpm ? "MLS-MPM" : "PB-MPM", 1e3f * gap0,
                 1e3f * gap);
     EXPECT_LE(gap, gap0 / 3.f);

@@ -24,6 +24,7 @@
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/suture.h"
+#include "wound_gap.h"
 
 namespace mpm {
 namespace {
@@ -581,19 +582,6 @@ std::vector<btVector3> stitchLoop() {
   return p;
 }
 
-/// Width of the gap between two blocks' facing sides over their upper half [m].
-float gapBetween(const Scene& scene, ParticleObjectId left, ParticleObjectId right) {
-  std::vector<Vec3f> a, b;
-  scene.readPositions(left, a);
-  scene.readPositions(right, b);
-  float inner = -1.f, outer = 1.f;
-  for (const Vec3f& x : a)
-    if (x.y > 0.01f) inner = std::max(inner, x.x);
-  for (const Vec3f& x : b)
-    if (x.y > 0.01f) outer = std::min(outer, x.x);
-  return outer - inner;
-}
-
 // layThreadAlong: a fixed-base thread laid along a stitch's loop (three straight runs, two
 // right-angle turns) has its points where asked (1e-6 m: float transforms over 6 cm) and
 // stays there, at rest, over 0.1 s without forces (a fixed base and no gravity: nothing
@@ -682,7 +670,7 @@ StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float ti
     holder->setAngularVelocity(btVector3(0, 0, 0));
   });
   StitchPull r;
-  r.gap0 = gapBetween(scene, left, right);
+  r.gap0 = test::woundGap(scene, left, right);
   ThreadWatch watch;
   const float L = d.length / d.segments;
   const int ticks = (int)std::lround(seconds / tick);
@@ -694,7 +682,7 @@ StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float ti
     r.tension = std::max(r.tension, (double)bullet::pinForce(pin, tick).length());
     if (!watch.finite || r.pin > d.segments) break;
   }
-  r.gap = gapBetween(scene, left, right);
+  r.gap = test::woundGap(scene, left, right);
   r.links = watch.length;
   r.finite = watch.finite;
   std::printf("stitch pulled %.2f s (%s, %s, ticks of 1/%.0f s): gap %.2f -> %.2f mm, peak tension %.3f N, pin gap %.2e "
