@@ -518,6 +518,34 @@ TEST(MeshImport, GltfDataUriThatIsNoBase64IsRefused) {
   std::remove(path.c_str());
 }
 
+// fuzz_mesh_import found it (in CI, seed 1, after the libraries became PIC): a GLB whose
+// primitive is a LINE_LOOP (mode 2) with indices past its vertices crashed assimp's glTF 2
+// reader (a read of address 0: segmentation fault); lines hold no triangles, so a primitive
+// of mode 2 is refused first, naming the byte, whether the GLB's JSON chunk or a .gltf
+// says it, spaced or escaped ("mo\u0064e") as a JSON reader takes it; mode 4 still loads
+TEST(MeshImport, GltfLineLoopIsRefused) {
+  const std::string crash = fileBytes(mpm::test::sourcePath("tests/fuzz/corpus/mesh/regress-glb-line-loop-index"));
+  ASSERT_GT(crash.size(), 100u);
+  const std::string glb = crash.substr(1);  // the fuzz input's first byte picks the format (GLB)
+  const std::string gltf = fileBytes(assetPath("box.gltf"));
+  const std::string triangles = "\"mode\": 4";
+  const size_t mode = gltf.find(triangles);
+  ASSERT_NE(mode, std::string::npos);
+  std::string spaced = gltf, escaped = gltf;
+  spaced.replace(mode, triangles.size(), "\"mode\" :  2");
+  escaped.replace(mode, triangles.size(), "\"mo\\u0064e\":2");
+  const std::pair<std::string, const char*> cases[] = {{glb, "glb"}, {spaced, "gltf"}, {escaped, "gltf"}};
+  for (const auto& [bytes, format] : cases) {
+    try {
+      loadTriangleMeshFromMemory(bytes.data(), bytes.size(), format);
+      ADD_FAILURE() << "a LINE_LOOP primitive was taken (" << format << ")";
+    } catch (const mpm::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("is 2 (LINE_LOOP): lines hold no triangles"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_EQ(loadTriangleMeshFromMemory(gltf.data(), gltf.size(), "gltf").triangleCount(), 12u);
+}
+
 // fuzz_mesh_import found it: an OBJ face naming a vertex the file does not have threw from
 // inside assimp's reader ("vertex index out of range"), which leaked the mesh it was
 // building (LeakSanitizer); every index is now checked first and the file refused naming

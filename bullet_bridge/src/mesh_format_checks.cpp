@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <string>
 #include <utility>
@@ -346,6 +347,63 @@ void checkGltfDataUris(const uint8_t* data, size_t size, const std::string& what
   }
 }
 
+/// assimp's glTF 2 reader reads a LINE_LOOP primitive's (mode 2) indices without checking
+/// them against its vertices: an index past them is a segmentation fault (fuzz_mesh_import
+/// found one in a GLB). Lines hold no triangles, so a glTF or GLB with a primitive of mode 2
+/// is refused before assimp reads it, naming the byte. The JSON (a GLB's first chunk, or the
+/// whole .gltf) is scanned token by token: every string (escapes decoded, as assimp's reader
+/// decodes them) that reads "mode" and is followed by ':' and a number equal to 2.
+void checkGltfLineLoops(const uint8_t* data, size_t size, const std::string& what) {
+  size_t begin = 0, end = size;
+  if (size >= 20 && std::memcmp(data, "glTF", 4) == 0) {  // GLB: header, then the JSON chunk
+    uint32_t length = 0;
+    std::memcpy(&length, data + 12, 4);
+    begin = 20;
+    end = std::min<uint64_t>(size, uint64_t(20) + length);
+  } else {
+    while (begin < size && std::isspace(data[begin])) ++begin;
+    if (begin == size || data[begin] != '{') return;  // no glTF JSON
+  }
+  std::string previous;  // the last string token, decoded
+  for (size_t at = begin; at < end;) {
+    const uint8_t c = data[at];
+    if (c == '"') {
+      std::string text;
+      for (++at; at < end && data[at] != '"'; ++at) {
+        if (data[at] != '\\' || at + 1 >= end) {
+          text += (char)data[at];
+          continue;
+        }
+        const uint8_t e = data[++at];
+        if (e == 'u' && at + 4 < end) {
+          const std::string hex(reinterpret_cast<const char*>(data) + at + 1, 4);
+          char* stop = nullptr;
+          const long code = std::strtol(hex.c_str(), &stop, 16);
+          text += stop == hex.c_str() + 4 && code < 128 ? (char)code : '?';
+          at += 4;
+        } else {
+          text += (char)e;
+        }
+      }
+      ++at;  // the closing quote
+      previous = text;
+      continue;
+    }
+    if (c == ':' && previous == "mode") {
+      size_t n = at + 1;
+      while (n < end && std::isspace(data[n])) ++n;
+      const std::string number(reinterpret_cast<const char*>(data) + n, std::min<size_t>(end - n, 32));
+      char* stop = nullptr;
+      const double mode = std::strtod(number.c_str(), &stop);
+      if (stop != number.c_str() && mode == 2.0)
+        throw mpm::Error("loadTriangleMesh: " + what + ": the glTF primitive mode at byte " + std::to_string(n) +
+                         " is 2 (LINE_LOOP): lines hold no triangles");
+    }
+    if (!std::isspace(c)) previous = c == ':' ? previous : std::string();
+    ++at;
+  }
+}
+
 /// assimp's OBJ reader checks a face's vertex, texture and normal indices only once it builds
 /// the mesh, and throws from there, leaking the mesh (fuzz_mesh_import found "vertex index
 /// out of range"). Every index of an "f", "l" or "p" line is checked first: an integer, not
@@ -432,6 +490,7 @@ void checkBeforeAssimp(const uint8_t* data, size_t size, std::string extension, 
   checkPly(data, size, what);
   checkAsciiStl(data, size, what);
   checkGltfDataUris(data, size, what);
+  checkGltfLineLoops(data, size, what);
   auto startsWith = [&](const char* magic) {
     const size_t n = std::strlen(magic);
     return size >= n && std::memcmp(data, magic, n) == 0;
