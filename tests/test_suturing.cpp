@@ -50,14 +50,7 @@ ParticleObjectDesc block() {
   return d;
 }
 
-/// The plate the block's base is glued to.
-ShapeDesc basePlate() {
-  ShapeDesc d;
-  d.parts.push_back(Geometry::box({0.05f, 0.005f, 0.05f}));
-  d.pose.position = {0.f, -0.005f, 0.f};
-  d.contact.mode = ContactMode::Bonded;
-  return d;
-}
+using test::basePlate;
 
 /// A quarter-circle needle in the x-y plane, centred at `centre`: its tail at angle pi/2
 /// (above the centre), its tip at angle pi (left of it) pointing down; turning about +z

@@ -524,11 +524,7 @@ TEST_P(ThreadDrawnThroughTissue, StaysOnItsPin) {
   Scene scene(threadTissueSettings());
   ParticleObjectDesc block = tissueBlock({0.02f, 0.01f, 0.00625f}, {0.f, 0.01f, 0.f}, 4e4f, 0.4f, 1060.f);
   scene.addParticleObject(block);
-  ShapeDesc plate;
-  plate.parts.push_back(Geometry::box({0.05f, 0.005f, 0.05f}));
-  plate.pose.position = {0.f, -0.005f, 0.f};
-  plate.contact.mode = ContactMode::Bonded;
-  scene.addShape(plate);
+  scene.addShape(test::basePlate());
   const btVector3 eye(0.005f, 0.01f, 0.0011f);
   btRigidBody* holder = bw.addBody(new btSphereShape(0.001f), 0.1f, btTransform(btQuaternion::getIdentity(), eye));
   holder->setCollisionFlags(holder->getCollisionFlags() | btCollisionObject::CF_NO_CONTACT_RESPONSE);
@@ -643,11 +639,7 @@ StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float ti
   Scene scene(settings);
   const ParticleObjectId left = scene.addParticleObject(tissueBlock({0.01f, 0.01f, 0.00625f}, {-0.013f, 0.01f, 0.f}, 3e4f, 0.3f, 1000.f));
   const ParticleObjectId right = scene.addParticleObject(tissueBlock({0.01f, 0.01f, 0.00625f}, {0.013f, 0.01f, 0.f}, 3e4f, 0.3f, 1000.f));
-  ShapeDesc plate;
-  plate.parts.push_back(Geometry::box({0.05f, 0.005f, 0.05f}));
-  plate.pose.position = {0.f, -0.005f, 0.f};
-  plate.contact.mode = ContactMode::Bonded;
-  scene.addShape(plate);
+  scene.addShape(test::basePlate());
   const std::vector<btVector3> loop = stitchLoop();
   bullet::SutureThreadDesc d = testThread(loop.front(), btVector3(0, -1, 0), 1.f);
   d.segments = 24;
@@ -787,12 +779,8 @@ INSTANTIATE_TEST_SUITE_P(Solver, PullingTheStitch, ::testing::Values(SolverType:
 // block reaching 0.5 kg m/s).
 TEST(NeedleCoupling, BlockGainsWhatTheNeedleLoses) {
   BulletWorld bw(WorldType::Discrete, 0.f);
-  SceneSettings settings;
-  settings.domain.lower = {-0.04f, -0.02f, -0.02f};
-  settings.domain.upper = {0.04f, 0.05f, 0.02f};
-  settings.dx = 0.0025f;
-  settings.gravity = {0.f, 0.f, 0.f};
-  settings.backend = Backend::Cpu;
+  SceneSettings settings = threadTissueSettings();
+  settings.domain.upper.y = 0.05f;
   Scene scene(settings);
   ParticleObjectDesc block = tissueBlock({0.02f, 0.01f, 0.00625f}, {0.f, 0.01f, 0.f}, 3e4f, 0.3f, 1000.f);
   block.material.fractureToughness = 25.f;

@@ -1,11 +1,22 @@
 #pragma once
-// The suturing tests' wound: two tissue blocks side by side, a gap across x between them.
+// The suturing tests' wound: two tissue blocks side by side, a gap across x between them,
+// glued to a plate at their bases.
 #include <algorithm>
 #include <vector>
 
 #include "mpm/scene.h"
+#include "mpm/shapes.h"
 
 namespace mpm::test {
+
+/// The plate the suturing tests' blocks are glued to at their bases (Bonded).
+inline ShapeDesc basePlate() {
+  ShapeDesc d;
+  d.parts.push_back(Geometry::box({0.05f, 0.005f, 0.05f}));
+  d.pose.position = {0.f, -0.005f, 0.f};
+  d.contact.mode = ContactMode::Bonded;
+  return d;
+}
 
 /// Width of the gap between two blocks' facing sides over their upper half (y > 1 cm) [m]:
 /// the right block's leftmost particle there minus the left block's rightmost.

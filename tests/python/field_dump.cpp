@@ -18,8 +18,18 @@ int main(int argc, char** argv) {
   try {
     auto loaded = mpm::bullet::LoadedScene::fromFile(argv[1]);
     mpm::Scene& scene = loaded->scene();
-    const float dt = std::strtof(argv[2], nullptr);
-    for (int i = 0, n = std::atoi(argv[3]); i < n; ++i) scene.step(dt);
+    char* end = nullptr;
+    const float dt = std::strtof(argv[2], &end);
+    if (*end || !(dt > 0.f)) {
+      std::fprintf(stderr, "field_dump: DT = %s: must be a number > 0\n", argv[2]);
+      return 2;
+    }
+    const long steps = std::strtol(argv[3], &end, 10);
+    if (*end || steps < 0) {
+      std::fprintf(stderr, "field_dump: STEPS = %s: must be an integer >= 0\n", argv[3]);
+      return 2;
+    }
+    for (long i = 0; i < steps; ++i) scene.step(dt);
     std::vector<mpm::Vec3f> v;
     std::vector<mpm::Mat3f> F;
     for (mpm::ParticleObjectId id : scene.particleObjects()) {
