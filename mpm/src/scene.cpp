@@ -406,6 +406,11 @@ ShapeState Scene::slicerState(SlicerId id) const { return impl_->idleRecord(impl
 ShapeImpulse Scene::slicerImpulse(SlicerId id) const {
   return impl_->idleRecord(impl_->slicers, id, "slicerImpulse").lastImpulse;
 }
+void Scene::setStepThreads(int threads) {
+  impl_->requireIdle("setStepThreads");
+  impl_->backend->setCpuThreads(threads > 0 ? threads : impl_->settings.cpuThreads);
+}
+bool Scene::stepping() const { return impl_->stepping; }
 StepReport Scene::step(float dt) {
   advance(dt);
   return fetchResults();

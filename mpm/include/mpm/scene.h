@@ -226,6 +226,14 @@ class Scene {
   size_t memoryBytes() const;
 
  private:
+  friend class SceneBatchImpl;  // mpm/scene_batch.h
+  /// SceneBatch's share of the threads: the CPU backend's loops run on `threads` threads
+  /// from the next advance (0: SceneSettings::cpuThreads again; CUDA ignores it). Results
+  /// do not depend on it. Between steps.
+  void setStepThreads(int threads);
+  /// Whether an advance() waits for its fetchResults().
+  bool stepping() const;
+
   std::unique_ptr<SceneImpl> impl_;
 };
 

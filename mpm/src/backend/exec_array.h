@@ -1,6 +1,7 @@
 #pragma once
 // ExecArray<T, Exec>: an owned array in an execution backend's memory space.
 #include <cstddef>
+#include <type_traits>
 #include <utility>
 
 namespace mpm {
@@ -44,6 +45,11 @@ class ExecArray {
   size_t size_ = 0;
 };
 
+template <class Exec, class = void>
+struct HasThreadCount : std::false_type {};
+template <class Exec>
+struct HasThreadCount<Exec, std::void_t<decltype(std::declval<Exec&>().setThreads(1))>> : std::true_type {};
+
 /// Owns a backend's Exec. A solver system derives from it first, ahead of ShapeBackend:
 /// base classes are built in order before any member and destroyed in reverse after them,
 /// so the Exec exists before the shapes and arrays that bind to it and outlives them.
@@ -52,6 +58,11 @@ class ExecOwner {
  protected:
   template <class... Args>
   explicit ExecOwner(Args&&... args) : exec_(std::forward<Args>(args)...) {}
+  /// Sets the CPU loops' thread count of an Exec that has one (CpuExec); others have no
+  /// threads to set.
+  void setExecThreads(int threads) {
+    if constexpr (HasThreadCount<Exec>::value) exec_.setThreads(threads);
+  }
   mutable Exec exec_;
 };
 

@@ -394,6 +394,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 #undef MPM_DOWNLOAD
   }
 
+  void setCpuThreads(int threads) override { this->setExecThreads(threads); }
   size_t particleCount() const override { return count_; }
   void clear() {
 #define MPM_CLEAR(type, name) name##_.reset();

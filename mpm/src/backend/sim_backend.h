@@ -119,6 +119,9 @@ class SimBackend {
   virtual double integrationPointEnergy(const HostParticles& /*state*/) const {
     return std::numeric_limits<double>::quiet_NaN();
   }
+  /// The number of threads the CPU loops run on from the next call (0: all hardware
+  /// threads); a SceneBatch gives each of its scenes a share. The CUDA backend ignores it.
+  virtual void setCpuThreads(int threads) = 0;
   virtual size_t particleCount() const = 0;
   virtual size_t activeBlocks() const = 0;
   virtual size_t memoryBytes() const = 0;

@@ -382,6 +382,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     return energy;
   }
 
+  void setCpuThreads(int threads) override { this->setExecThreads(threads); }
   size_t particleCount() const override { return nodes_.size(); }
   size_t activeBlocks() const override { return 0; }  // no grid
   size_t memoryBytes() const override {

@@ -120,7 +120,9 @@ struct CpuExec {
   /// Same, in grid blocks (one block holds up to a few hundred particles).
   static constexpr long long kMinParallelBlocks = 16;
 
-  explicit CpuExec(int threadCount) : threads(threadCount > 0 ? threadCount : omp_get_max_threads()) {}
+  explicit CpuExec(int threadCount) { setThreads(threadCount); }
+  /// Every loop reads `threads` when it starts: results do not depend on it (see above).
+  void setThreads(int threadCount) { threads = threadCount > 0 ? threadCount : omp_get_max_threads(); }
 
   template <class T>
   T* allocate(size_t n) {

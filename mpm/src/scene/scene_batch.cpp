@@ -1,0 +1,176 @@
+// SceneBatch: a few runner threads take the batch's scenes one at a time and step each on
+// its share of the threads. A runner only waits while the scene's own worker
+// (scene/step_worker.h) runs the step, so the OpenMP teams stay those of the scenes'
+// workers and a scene's results are those of its own advance().
+#include "mpm/scene_batch.h"
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "core/validate.h"
+
+#if defined(_OPENMP)
+#include <omp.h>
+#endif
+
+namespace mpm {
+
+namespace {
+int allThreads() {
+#if defined(_OPENMP)
+  return omp_get_max_threads();  // OMP_NUM_THREADS, as SceneSettings::cpuThreads = 0
+#else
+  return (int)std::max(1u, std::thread::hardware_concurrency());
+#endif
+}
+}  // namespace
+
+class SceneBatchImpl {
+ public:
+  SceneBatchImpl(std::vector<Scene*> s, int t) : scenes(std::move(s)) {
+    validate::atLeast("SceneBatch threads", t, 0);
+    for (size_t i = 0; i < scenes.size(); ++i) {
+      const std::string field = "SceneBatch scenes[" + std::to_string(i) + "]";
+      if (!scenes[i]) throw InvalidArgument(field, "null", "every entry must point to a Scene");
+      for (size_t j = 0; j < i; ++j)
+        if (scenes[j] == scenes[i])
+          throw InvalidArgument(field, "scenes[" + std::to_string(j) + "]",
+                                "the same Scene twice: a scene can only advance once per step");
+    }
+    threads = t > 0 ? t : allThreads();
+    // at least as many scenes as threads: one thread each, every thread busy; fewer
+    // scenes: each gets an equal share (the rest of the division idles)
+    const int runnerCount = (int)std::min<size_t>((size_t)threads, scenes.size());
+    share = runnerCount > 0 ? threads / runnerCount : 1;
+    for (int r = 0; r < runnerCount; ++r) runners.emplace_back([this] { loop(); });
+  }
+
+  ~SceneBatchImpl() {
+    if (stepping) wait();
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      stop = true;
+    }
+    wake.notify_all();
+    for (auto& r : runners) r.join();
+  }
+
+  void advance(const std::vector<float>& dt) {
+    if (stepping) throw Error("SceneBatch::advance: a step is running; call fetchResults() first");
+    if (dt.size() != scenes.size())
+      throw InvalidArgument("SceneBatch::advance dt", std::to_string(dt.size()) + " values",
+                            "one per scene: the batch has " + std::to_string(scenes.size()));
+    for (size_t i = 0; i < dt.size(); ++i)
+      validate::positive("SceneBatch::advance dt[" + std::to_string(i) + "]", dt[i]);
+    for (size_t i = 0; i < scenes.size(); ++i)
+      if (scenes[i]->stepping())
+        throw InvalidArgument("SceneBatch scenes[" + std::to_string(i) + "]", "stepping",
+                              "its own advance() waits for its fetchResults()");
+    if (scenes.empty()) return;
+    dts = dt;
+    reports.assign(scenes.size(), StepReport{});
+    errors.assign(scenes.size(), nullptr);
+    failed.clear();
+    next = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      busy = (int)runners.size();
+      ++generation;
+    }
+    wake.notify_all();
+    stepping = true;
+  }
+
+  std::vector<StepReport> fetch() {
+    if (!stepping) return {};
+    wait();
+    for (size_t i = 0; i < errors.size(); ++i)
+      if (errors[i]) failed.push_back(i);
+    if (!failed.empty()) std::rethrow_exception(errors[failed.front()]);
+    return reports;
+  }
+
+  std::vector<Scene*> scenes;
+  int threads = 1;
+  int share = 1;  ///< threads each scene's loops run on
+  std::vector<size_t> failed;
+
+ private:
+  void wait() {
+    std::unique_lock<std::mutex> lock(mutex);
+    finished.wait(lock, [this] { return busy == 0; });
+    stepping = false;
+  }
+
+  /// Takes scenes until none is left. Which runner steps which scene does not matter:
+  /// each scene's result depends on the scene alone.
+  void loop() {
+    long seen = 0;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        wake.wait(lock, [&] { return stop || generation != seen; });
+        if (stop) return;
+        seen = generation;
+      }
+      for (size_t i; (i = next.fetch_add(1)) < scenes.size();) {
+        Scene& s = *scenes[i];
+        try {
+          s.setStepThreads(share);
+          reports[i] = s.step(dts[i]);
+        } catch (...) {
+          errors[i] = std::current_exception();
+        }
+        try {
+          s.setStepThreads(0);  // stepped alone again, it runs on its own settings
+        } catch (...) {
+        }
+      }
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        --busy;
+      }
+      finished.notify_all();
+    }
+  }
+
+  std::vector<float> dts;
+  std::vector<StepReport> reports;
+  std::vector<std::exception_ptr> errors;
+  std::atomic<size_t> next{0};
+  std::mutex mutex;
+  std::condition_variable wake, finished;
+  long generation = 0;
+  int busy = 0;
+  bool stop = false, stepping = false;
+  std::vector<std::thread> runners;  // last: they start after what they use exists
+};
+
+SceneBatch::SceneBatch(std::vector<Scene*> scenes, int threads)
+    : impl_(std::make_unique<SceneBatchImpl>(std::move(scenes), threads)) {}
+SceneBatch::~SceneBatch() = default;
+size_t SceneBatch::size() const { return impl_->scenes.size(); }
+Scene& SceneBatch::scene(size_t i) {
+  if (i >= impl_->scenes.size())
+    throw InvalidArgument("SceneBatch::scene index", std::to_string(i),
+                          "the batch has " + std::to_string(impl_->scenes.size()) + " scenes");
+  return *impl_->scenes[i];
+}
+int SceneBatch::threads() const { return impl_->threads; }
+void SceneBatch::advance(float dt) {
+  validate::positive("SceneBatch::advance dt", dt);
+  impl_->advance(std::vector<float>(impl_->scenes.size(), dt));
+}
+void SceneBatch::advance(const std::vector<float>& dt) { impl_->advance(dt); }
+std::vector<StepReport> SceneBatch::fetchResults() { return impl_->fetch(); }
+std::vector<StepReport> SceneBatch::step(float dt) {
+  advance(dt);
+  return fetchResults();
+}
+const std::vector<size_t>& SceneBatch::failedScenes() const { return impl_->failed; }
+
+}  // namespace mpm
