@@ -12,10 +12,9 @@
 /// thread pays none of that. Each scene ends bit for bit where it would have stepped alone
 /// (the CPU path does not depend on the thread count).
 ///
-/// CUDA: the backend launches on the default stream and reads its checks back with
-/// blocking copies, so the scenes' host work overlaps but their kernels run one scene after
-/// another. A stream per scene needs the CUDA backend to take a stream for its launches,
-/// thrust calls and copies (mpm/src/backend/cuda/cuda_exec.cuh); not done yet.
+/// CUDA: every scene's step starts at once (each scene has its own worker thread) and its
+/// kernels, sorts and copies go to its own stream, so small scenes' launches overlap on the
+/// device. `threads` does not limit them. (Compiled, not yet run on a GPU.)
 #include <cstddef>
 #include <exception>
 #include <memory>
@@ -30,7 +29,7 @@ class SceneBatchImpl;
 class SceneBatch {
  public:
   /// `scenes` (not owned) must outlive the batch and stay where they are (a moved-from
-  /// Scene is an empty shell). `threads`: how many scenes run at once and the threads
+  /// Scene is an empty shell). `threads`: how many CPU scenes run at once and the threads
   /// they share; 0 = all hardware threads (OMP_NUM_THREADS if set). Throws InvalidArgument
   /// naming the field for a null scene ("SceneBatch scenes[i]"), a scene listed twice, or
   /// threads < 0. An empty batch is allowed and does nothing.

@@ -1,12 +1,14 @@
-// SceneBatch: a few runner threads take the batch's scenes one at a time and step each on
-// its share of the threads. A runner only waits while the scene's own worker
+// SceneBatch: a few runner threads take the batch's CPU scenes one at a time and step each
+// on its share of the threads. A runner only waits while the scene's own worker
 // (scene/step_worker.h) runs the step, so the OpenMP teams stay those of the scenes'
-// workers and a scene's results are those of its own advance().
+// workers and a scene's results are those of its own advance(). CUDA scenes are all
+// started at once: each has its worker thread and its stream (CudaExec).
 #include "mpm/scene_batch.h"
 
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <cstdint>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -42,15 +44,21 @@ class SceneBatchImpl {
                                 "the same Scene twice: a scene can only advance once per step");
     }
     threads = t > 0 ? t : allThreads();
+    for (size_t i = 0; i < scenes.size(); ++i) (scenes[i]->backend() == Backend::Cuda ? gpu : cpu).push_back(i);
     // at least as many scenes as threads: one thread each, every thread busy; fewer
     // scenes: each gets an equal share (the rest of the division idles)
-    const int runnerCount = (int)std::min<size_t>((size_t)threads, scenes.size());
+    const int runnerCount = (int)std::min<size_t>((size_t)threads, cpu.size());
     share = runnerCount > 0 ? threads / runnerCount : 1;
     for (int r = 0; r < runnerCount; ++r) runners.emplace_back([this] { loop(); });
   }
 
   ~SceneBatchImpl() {
-    if (stepping) wait();
+    if (stepping) {
+      try {
+        fetch();  // the scenes are the caller's: none is left waiting for a fetch
+      } catch (...) {  // an error nobody fetched
+      }
+    }
     {
       std::lock_guard<std::mutex> lock(mutex);
       stop = true;
@@ -74,7 +82,16 @@ class SceneBatchImpl {
     dts = dt;
     reports.assign(scenes.size(), StepReport{});
     errors.assign(scenes.size(), nullptr);
+    started.assign(scenes.size(), 0);
     failed.clear();
+    for (size_t i : gpu) {
+      try {
+        scenes[i]->advance(dt[i]);
+        started[i] = 1;
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
     next = 0;
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -88,6 +105,14 @@ class SceneBatchImpl {
   std::vector<StepReport> fetch() {
     if (!stepping) return {};
     wait();
+    for (size_t i : gpu) {
+      if (!started[i]) continue;
+      try {
+        reports[i] = scenes[i]->fetchResults();
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    }
     for (size_t i = 0; i < errors.size(); ++i)
       if (errors[i]) failed.push_back(i);
     if (!failed.empty()) std::rethrow_exception(errors[failed.front()]);
@@ -117,7 +142,8 @@ class SceneBatchImpl {
         if (stop) return;
         seen = generation;
       }
-      for (size_t i; (i = next.fetch_add(1)) < scenes.size();) {
+      for (size_t k; (k = next.fetch_add(1)) < cpu.size();) {
+        const size_t i = cpu[k];
         Scene& s = *scenes[i];
         try {
           s.setStepThreads(share);
@@ -138,6 +164,8 @@ class SceneBatchImpl {
     }
   }
 
+  std::vector<size_t> cpu, gpu;  ///< the scenes on each backend, in batch order
+  std::vector<uint8_t> started;  ///< CUDA scenes whose advance() began
   std::vector<float> dts;
   std::vector<StepReport> reports;
   std::vector<std::exception_ptr> errors;

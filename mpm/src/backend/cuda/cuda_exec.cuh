@@ -135,11 +135,18 @@ struct CudaExec {
     }
   };
 
+  /// Each scene's work goes to its own stream, so the steps of scenes advanced together
+  /// (SceneBatch) overlap on the device. A blocking stream: it still waits for work left on
+  /// the legacy default stream, should anything launch there.
   CudaExec() {
+    cudaCheck(cudaStreamCreate(&stream_), "cudaStreamCreate");
     cudaCheck(cudaMalloc(&checkBuffer_, 2 * sizeof(uint32_t)), "cudaMalloc(check)");
     resetCheck();
   }
-  ~CudaExec() { cudaFree(checkBuffer_); }
+  ~CudaExec() {
+    cudaFree(checkBuffer_);
+    cudaStreamDestroy(stream_);
+  }
   CudaExec(const CudaExec&) = delete;
   CudaExec& operator=(const CudaExec&) = delete;
 
@@ -150,15 +157,22 @@ struct CudaExec {
     return static_cast<T*>(p);
   }
   void release(void* p) { cudaFree(p); }
+  // host copies wait for the stream, as cudaMemcpy waited for the default stream: the
+  // host buffer may go (or be read) when they return
   void copyToDevice(void* dst, const void* src, size_t bytes) {
-    if (bytes) cudaCheck(cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice), "copy to device");
+    if (!bytes) return;
+    cudaCheck(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyHostToDevice, stream_), "copy to device");
+    cudaCheck(cudaStreamSynchronize(stream_), "copy to device");
   }
   void copyToHost(void* dst, const void* src, size_t bytes) const {
-    if (bytes) cudaCheck(cudaMemcpy(dst, src, bytes, cudaMemcpyDeviceToHost), "copy to host");
+    if (!bytes) return;
+    cudaCheck(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToHost, stream_), "copy to host");
+    cudaCheck(cudaStreamSynchronize(stream_), "copy to host");
   }
   void copyOnDevice(void* dst, const void* src, size_t bytes) {
-    if (bytes) cudaCheck(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice), "device copy");
+    if (bytes) cudaCheck(cudaMemcpyAsync(dst, src, bytes, cudaMemcpyDeviceToDevice, stream_), "device copy");
   }
+  cudaStream_t stream() const { return stream_; }
 
   static unsigned int blocksFor(size_t n) { return (unsigned int)((n + kThreads - 1) / kThreads); }
 
@@ -166,7 +180,7 @@ struct CudaExec {
   template <class F>
   void forEach(size_t n, const F& f) {
     if (n == 0) return;
-    forEachKernel<<<blocksFor(n), kThreads>>>(n, f);
+    forEachKernel<<<blocksFor(n), kThreads, 0, stream_>>>(n, f);
     cudaCheck(cudaGetLastError(), "kernel launch");
   }
 
@@ -205,6 +219,7 @@ struct CudaExec {
   void gridToParticle(const Binning& b, const F& f);
 
  private:
+  cudaStream_t stream_ = nullptr;
   uint32_t* checkBuffer_ = nullptr;
 };
 
@@ -268,7 +283,7 @@ class CudaExec::Binning {
     grow(keys_, keysCap_, n);
     grow(order_, orderCap_, n);
     exec_.forEach(n, cuda_kernels::ParticleKeys{P, geo_, keys_});
-    const auto policy = thrust::cuda::par(scratch_);
+    const auto policy = thrust::cuda::par(scratch_).on(exec_.stream());
     thrust::sequence(policy, order_, order_ + n);
     thrust::stable_sort_by_key(policy, keys_, keys_ + n, order_);
     // occupied blocks, in place at the front of keys_
@@ -331,18 +346,18 @@ inline void CudaExec::bin(const ParticleView& P, Binning& b) { b.build(P); }
 
 inline void CudaExec::contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies,
                                   int nBodies, ContactSums* out, int pass) {
-  cudaCheck(cudaMemsetAsync(out, 0, nBodies * sizeof(ContactSums)), "clear contact sums");
+  cudaCheck(cudaMemsetAsync(out, 0, nBodies * sizeof(ContactSums), stream_), "clear contact sums");
   const size_t nodes = (size_t)b.gridView().activeCount * kBlockNodes;
   if (nodes == 0 || nParts == 0) return;
-  contactKernel<<<blocksFor(nodes), kThreads>>>(b.gridView(), parts, nParts, bodies, out, pass);
+  contactKernel<<<blocksFor(nodes), kThreads, 0, stream_>>>(b.gridView(), parts, nParts, bodies, out, pass);
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
 template <class F>
 void CudaExec::particleToGrid(const Binning& b, const F& f) {
   if (b.count() == 0) return;
-  particleToGridKernel<<<blocksFor(b.count()), kThreads>>>(b.count(), b.order(), f,
-                                                           GridNodes<Add>{b.gridView()});
+  particleToGridKernel<<<blocksFor(b.count()), kThreads, 0, stream_>>>(b.count(), b.order(), f,
+                                                                      GridNodes<Add>{b.gridView()});
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
@@ -350,8 +365,8 @@ template <class F>
 void CudaExec::gridToParticle(const Binning& b, const F& f) {
   if (b.count() == 0) return;
   // the speed that matters for the next substep count is the latest one
-  cudaCheck(cudaMemsetAsync(checkBuffer_, 0, sizeof(uint32_t)), "reset speed");
-  gridToParticleKernel<<<blocksFor(b.count()), kThreads>>>(
+  cudaCheck(cudaMemsetAsync(checkBuffer_, 0, sizeof(uint32_t), stream_), "reset speed");
+  gridToParticleKernel<<<blocksFor(b.count()), kThreads, 0, stream_>>>(
       b.count(), f, GridNodes<Add>{b.gridView()}, checkBuffer_, checkBuffer_ + 1);
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
