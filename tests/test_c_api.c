@@ -293,6 +293,65 @@ static void restingOnCompoundAndMeshShapes(void) {
   free(v);
 }
 
+/* A batch of three scenes (blocks started at different speeds) stepped together on two
+ * threads ends bit for bit where each scene stepped alone does; a NULL or repeated scene,
+ * a NULL batch and a bad dt are refused by name. */
+static void batchOfScenes(void) {
+  printf("--- a batch of scenes ---\n");
+  enum { kScenes = 3, kSteps = 6 };
+  mpm_scene_settings s = settings();
+  mpm_scene *together[kScenes], *alone[kScenes];
+  mpm_object_id ids[kScenes], aloneIds[kScenes];
+  for (int i = 0; i < kScenes; ++i) {
+    mpm_object_desc block;
+    mpm_object_desc_default(&block);
+    block.half_extents = (mpm_vec3){0.04f, 0.04f, 0.04f};
+    block.velocity = (mpm_vec3){0.f, -0.5f * (float)i, 0.f};
+    together[i] = alone[i] = NULL;
+    CHECK(mpm_scene_create(&s, &together[i]) == MPM_OK && mpm_scene_create(&s, &alone[i]) == MPM_OK, "%s",
+          mpm_last_error());
+    if (!together[i] || !alone[i]) return;
+    CHECK(mpm_scene_add_object(together[i], &block, &ids[i]) == MPM_OK, "%s", mpm_last_error());
+    CHECK(mpm_scene_add_object(alone[i], &block, &aloneIds[i]) == MPM_OK, "%s", mpm_last_error());
+  }
+  mpm_batch* batch = NULL;
+  mpm_scene* withNull[2] = {together[0], NULL};
+  expectError(mpm_batch_create(withNull, 2, 2, &batch), MPM_ERROR_INVALID_ARGUMENT, "scenes[1] = null");
+  mpm_scene* twice[2] = {together[0], together[0]};
+  expectError(mpm_batch_create(twice, 2, 2, &batch), MPM_ERROR_INVALID_ARGUMENT, "scenes[1] = scenes[0]");
+  expectError(mpm_batch_create(together, kScenes, -2, &batch), MPM_ERROR_INVALID_ARGUMENT, "threads = -2");
+  CHECK(batch == NULL, "no batch on failure");
+  expectError(mpm_batch_step(NULL, 0.01f, NULL), MPM_ERROR_INVALID_ARGUMENT, "batch = NULL");
+  CHECK(mpm_batch_create(together, kScenes, 2, &batch) == MPM_OK, "%s", mpm_last_error());
+  if (!batch) return;
+  expectError(mpm_batch_step(batch, -0.01f, NULL), MPM_ERROR_INVALID_ARGUMENT, "dt = -0.01");
+  mpm_step_report reports[kScenes];
+  for (int k = 0; k < kSteps; ++k) {
+    CHECK(mpm_batch_step(batch, 1.f / 240, reports) == MPM_OK, "%s", mpm_last_error());
+    for (int i = 0; i < kScenes; ++i) CHECK(mpm_scene_step(alone[i], 1.f / 240, NULL) == MPM_OK, "%s", mpm_last_error());
+  }
+  CHECK(reports[2].substeps >= 1, "substeps %d", reports[2].substeps);
+  mpm_batch_release(batch);
+  mpm_batch_release(NULL);
+  size_t n = 0;
+  CHECK(mpm_scene_particle_count(alone[0], aloneIds[0], &n) == MPM_OK && n > 0, "%s", mpm_last_error());
+  mpm_vec3 *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+  double y[kScenes];
+  for (int i = 0; i < kScenes; ++i) {
+    size_t ca = 0, cb = 0;
+    CHECK(mpm_scene_read_positions(together[i], ids[i], a, n, &ca) == MPM_OK &&
+              mpm_scene_read_positions(alone[i], aloneIds[i], b, n, &cb) == MPM_OK && ca == n && cb == n,
+          "%s", mpm_last_error());
+    CHECK(memcmp(a, b, n * sizeof *a) == 0, "scene %d in the batch ends where it does alone", i);
+    y[i] = meanY(a, n);
+    mpm_scene_release(together[i]);
+    mpm_scene_release(alone[i]);
+  }
+  CHECK(y[2] < y[1] && y[1] < y[0], "the faster blocks fell further: %.5f %.5f %.5f", y[0], y[1], y[2]);
+  free(a);
+  free(b);
+}
+
 int main(void) {
   /* --- errors before a scene exists: each names its field and value --- */
   mpm_scene* scene = NULL;
@@ -437,6 +496,7 @@ int main(void) {
   free(first);
 
   restingOnCompoundAndMeshShapes();
+  batchOfScenes();
   printf(failures ? "test_c_api: %d FAILED\n" : "test_c_api: all passed\n", failures);
   return failures ? 1 : 0;
 }

@@ -105,6 +105,17 @@ mpm_status mpm_scene_advance(mpm_scene* scene, float dt);
 mpm_status mpm_scene_fetch_results(mpm_scene* scene, mpm_step_report* report);
 mpm_status mpm_scene_time(const mpm_scene* scene, double* time);
 
+/* --- many scenes at once (mpm/scene_batch.h): data generation, reinforcement learning --- */
+typedef struct mpm_batch mpm_batch;
+/* A batch of `count` scenes (not owned; release the batch before them) advanced together:
+ * on the CPU each scene runs on one of `threads` threads (0: all hardware threads), and
+ * ends bit for bit where it would have stepped alone. A NULL or repeated scene is refused. */
+mpm_status mpm_batch_create(mpm_scene* const* scenes, size_t count, int threads, mpm_batch** batch);
+void mpm_batch_release(mpm_batch* batch); /* NULL is ignored */
+/* Advances every scene by dt [s] and waits; `reports` (count entries) may be NULL. If a
+ * scene diverged (its message names scenes[i]) it is as before the step; the others moved. */
+mpm_status mpm_batch_step(mpm_batch* batch, float dt, mpm_step_report* reports);
+
 /* --- particle objects (tissue) --- */
 typedef struct mpm_material {
   int model;                 /* mpm_material_model */

@@ -14,11 +14,16 @@
 #include "mpm/curves.h"
 #include "mpm/error.h"
 #include "mpm/scene.h"
+#include "mpm/scene_batch.h"
 #include "mpm/sdf_grid.h"
 #include "mpm/slicers.h"
 
 struct mpm_scene {
   mpm::Scene scene;
+};
+
+struct mpm_batch {
+  mpm::SceneBatch batch;
 };
 
 namespace {
@@ -277,6 +282,33 @@ mpm_status mpm_scene_fetch_results(mpm_scene* scene, mpm_step_report* out) {
 
 mpm_status mpm_scene_time(const mpm_scene* scene, double* time) {
   return guarded("mpm_scene_time", [&] { need(time, "time") = need(scene, "scene").scene.time(); });
+}
+
+mpm_status mpm_batch_create(mpm_scene* const* scenes, size_t count, int threads, mpm_batch** batch) {
+  return guarded("mpm_batch_create", [&] {
+    need(batch, "batch") = nullptr;
+    if (count > 0) need(scenes, "scenes");
+    std::vector<mpm::Scene*> list(count, nullptr);
+    for (size_t i = 0; i < count; ++i)
+      if (scenes[i]) list[i] = &scenes[i]->scene;  // a NULL entry is refused by SceneBatch, named
+    *batch = new mpm_batch{mpm::SceneBatch(std::move(list), threads)};
+  });
+}
+
+void mpm_batch_release(mpm_batch* batch) { delete batch; }
+
+mpm_status mpm_batch_step(mpm_batch* batch, float dt, mpm_step_report* reports) {
+  return guarded("mpm_batch_step", [&] {
+    mpm::SceneBatch& b = need(batch, "batch").batch;
+    std::vector<mpm::StepReport> r;
+    try {
+      r = b.step(dt);
+    } catch (const mpm::SimulationDiverged& e) {  // which scene: the message says
+      throw mpm::SimulationDiverged("scenes[" + std::to_string(b.failedScenes().front()) + "]: " + e.what());
+    }
+    if (reports)
+      for (size_t i = 0; i < r.size(); ++i) reports[i] = report(r[i]);
+  });
 }
 
 void mpm_object_desc_default(mpm_object_desc* out) {
