@@ -12,9 +12,9 @@ Quaternions are (x, y, z, w), as in pybullet. Errors: InvalidArgument (a ValueEr
 CheckpointError, SimulationDiverged, BackendUnavailable, all subclasses of Error.
 """
 from ._core import (BackendUnavailable, CheckpointError, CurveId, EnergyBalance, Error, InvalidArgument,
-                    ObjectId, Scene, ShapeId, SimulationDiverged, SlicerId, StepReport,
+                    ObjectId, Scene, SceneBatch, ShapeId, SimulationDiverged, SlicerId, StepReport,
                     cuda_device_available)
 
 __all__ = ["BackendUnavailable", "CheckpointError", "CurveId", "EnergyBalance", "Error", "InvalidArgument",
-           "ObjectId", "Scene", "ShapeId", "SimulationDiverged", "SlicerId", "StepReport",
+           "ObjectId", "Scene", "SceneBatch", "ShapeId", "SimulationDiverged", "SlicerId", "StepReport",
            "cuda_device_available"]

@@ -38,6 +38,15 @@ class PyScene {
   std::vector<Vec3f> vectors;
   std::vector<Mat3f> matrices;
 
+  /// For mpm_bullet.SceneBatch (batch_bindings.cpp), which marks each of its scenes in use
+  /// (with the GIL held) before it lets go of the GIL for the step, and clears the marks after.
+  Scene& markInUse(const char* call) {
+    if (inUse_) throw Error(std::string(call) + ": another thread is in a call on one of the batch's scenes");
+    inUse_ = true;
+    return scene_;
+  }
+  void clearInUse() { inUse_ = false; }
+
   /// Marks the scene in use, then lets go of the GIL; scene() is the scene within.
   class Released {
    public:
@@ -73,6 +82,7 @@ void bindScene(py::module_& m, SceneClass& c);
 void bindShapes(SceneClass& c);
 void bindTools(SceneClass& c);
 void bindArrays(SceneClass& c);
+void bindBatch(py::module_& m);
 
 // --- conversions (convert.cpp); a value that does not convert throws InvalidArgument naming `name`
 

@@ -11,5 +11,6 @@ PYBIND11_MODULE(_core, m) {
   mpm::python::bindShapes(scene);
   mpm::python::bindTools(scene);
   mpm::python::bindArrays(scene);
+  mpm::python::bindBatch(m);
   m.def("cuda_device_available", &mpm::cudaDeviceAvailable, "True if a CUDA device is usable here.");
 }
