@@ -363,8 +363,10 @@ std::string markdownReport(const RunInfo& info, const std::vector<SweepResult>& 
        "k is the substep over the solver's stability estimate: for MLS-MPM, standard MPM and PB-MPM"
        " dx / c_p = "
     << num(1e3 * kDx / waveSpeed(cylinderMaterial(kSeedNu)), 3)
-    << " ms (the CFL step at cflNumber = 1 at rest; the default policy takes 0.3 of it; PB-MPM's step is"
-       " not bound by it), for MTLED its critical step of eq. 37 (the default takes timeStepSafety = 0.5 of"
+    << " ms (the CFL step at cflNumber = 1 at rest; the default policy takes defaultCflNumber of it:"
+       " MLS-MPM "
+    << num(defaultCflNumber(SolverType::MlsMpm), 2) << ", standard MPM " << num(defaultCflNumber(SolverType::StandardMpm), 2)
+    << "; PB-MPM's step is not bound by it), for MTLED its critical step of eq. 37 (the default takes timeStepSafety = 0.5 of"
        " it). Frames of 4 k times the estimate with `fixedSubsteps = 4` (the energy checked every 4"
        " substeps); k starts at 1 and doubles while the run is stable (halves while it fails), then four"
        " bisections between the largest stable and the smallest failed k. The sweep stops at the k where"

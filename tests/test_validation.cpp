@@ -97,8 +97,10 @@ TEST(Validation, GravityAndSubstepPolicyMustBeFinite) {
   s.gravity.y = kInf;
   expectRejected([&] { Scene scene(s); }, "SceneSettings.gravity", "inf");
   s = goodSettings();
-  s.substeps.cflNumber = 0.f;
-  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.cflNumber", "0");
+  s.substeps.cflNumber = -0.5f;  // 0 is the solver's default
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.cflNumber", "-0.5");
+  s.substeps.cflNumber = kInf;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.cflNumber", "inf");
   s = goodSettings();
   s.substeps.fixedSubsteps = -3;
   expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "-3");

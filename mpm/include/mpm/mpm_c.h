@@ -89,7 +89,7 @@ typedef struct mpm_scene_settings {
   int backend;                         /* mpm_backend */
   int cpu_threads;                     /* 0: all hardware threads */
   int pb_iterations;                   /* MPM_SOLVER_PB: iterations per substep */
-  float cfl_number;                    /* substep = cfl_number dx / the fastest wave */
+  float cfl_number;                    /* substep = cfl_number dx / the fastest wave; 0: the solver's default */
 } mpm_scene_settings;
 void mpm_scene_settings_default(mpm_scene_settings* settings);
 mpm_status mpm_scene_create(const mpm_scene_settings* settings, mpm_scene** scene);

@@ -172,8 +172,9 @@ class Scene {
   StepReport step(float dt);
 
   /// Longest substep the substep policy allows now [s]: cflNumber dx / (c_p + the fastest
-  /// particle or shape), and with MTLED no more than timeStepSafety times its critical
-  /// step (eq. 37); infinity when nothing bounds it. advance(dt) takes ceil(dt / this)
+  /// particle or shape) (SubstepPolicy::cflFor: the solver's default when cflNumber is 0),
+  /// and with MTLED no more than timeStepSafety times its critical step (eq. 37); infinity
+  /// when nothing bounds it. advance(dt) takes ceil(dt / this)
   /// substeps unless fixedSubsteps is set. Not during a step.
   float maxSubstep();
 

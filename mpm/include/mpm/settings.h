@@ -104,12 +104,35 @@ struct DomainSettings {
   float mirrorPlane(int axis, float dx) const { return lower[axis] + (float)wallThickness * dx; }
 };
 
+/// The CFL number a solver takes when SubstepPolicy::cflNumber is 0, each a stated margin
+/// under the largest stable step bench_stability measured (its step sweep, seed 004's
+/// cylinder at nu = 0.49 compressed fast; bench/results/stability.md), in units of dx / c_p:
+/// - MLS-MPM 0.6: stable to 1.06, failing at 1.12 (a margin of 1.77x). Not 0.7 (1.52x):
+///   a sticky wall's hold loses accuracy with the step (Walls.StickyFloorHoldsTheBottomLayer:
+///   the bottom layer slips 3.7 mm at 0.3, 14.0 mm at 0.6, 15.8 mm at 0.7, over its 15 mm bound);
+/// - standard MPM 0.55: stable to 0.875, failing at 0.906 (1.59x);
+/// - PB-MPM 0.3: not bound by c_p (stable beyond 8); the number bounds how far particles
+///   and shapes move per substep only (0.3 of a cell), as before;
+/// - MTLED 0.3: its elastic bound is MtledSettings::timeStepSafety; this bounds motion only.
+inline float defaultCflNumber(SolverType solver) {
+  switch (solver) {
+    case SolverType::MlsMpm: return 0.6f;
+    case SolverType::StandardMpm: return 0.55f;
+    default: return 0.3f;
+  }
+}
+
 /// How an `advance(dt)` is cut into substeps.
 struct SubstepPolicy {
-  /// Substep = cflNumber * dx / (fastest elastic wave speed + fastest particle speed).
-  float cflNumber = 0.3f;
+  /// Substep = cflNumber * dx / (fastest elastic wave speed + fastest particle speed), in
+  /// [0, 1]; 0: the solver's own default (defaultCflNumber). Until issue 19 the default
+  /// was 0.3 for every solver (a margin of 3.5x for MLS-MPM): set 0.3 to get that back.
+  float cflNumber = 0.f;
   /// If > 0, use exactly this many substeps per advance() and skip the CFL bound.
   int fixedSubsteps = 0;
+
+  /// The CFL number in force for `solver`: cflNumber, or the solver's default when 0.
+  float cflFor(SolverType solver) const { return cflNumber > 0.f ? cflNumber : defaultCflNumber(solver); }
 };
 
 /// Opt-in blow-up detection by energy. The checks for non-finite states and particles

@@ -88,7 +88,10 @@ void sceneSettings(const SceneSettings& s) {
       throw InvalidArgument("SceneSettings.domain.mirrorLower[" + std::to_string(a) + "]", "true",
                             "is not supported by the Mtled solver (it has no grid to mirror)");
   finite("SceneSettings.gravity", s.gravity);
-  positive("SceneSettings.substeps.cflNumber", s.substeps.cflNumber);
+  finite("SceneSettings.substeps.cflNumber", s.substeps.cflNumber);
+  if (s.substeps.cflNumber < 0.f)  // 0: the solver's default
+    throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
+                          "must be >= 0 (0: the solver's default)");
   if (s.substeps.cflNumber > 1.f)
     throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
                           "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");

@@ -30,7 +30,7 @@ float SubstepBounds::maxSubstep() const {
   }
   const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
   float dtMax = backend.stableTimeStep();
-  if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflNumber * settings.dx / speed);
+  if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflFor(settings.solver) * settings.dx / speed);
   return dtMax;
 }
 
@@ -60,7 +60,9 @@ void SubstepBounds::refuseSubsteps(float dt, float dtMax) const {
   const float own = backend.stableTimeStep();
   if (own < std::numeric_limits<float>::infinity()) s << " the solver's own stable step is " << own << " s;";
   s << " the fastest particle moves at " << maxParticleSpeed << " m/s (SceneSettings.substeps.cflNumber = "
-    << settings.substeps.cflNumber << ", dx = " << settings.dx
+    << settings.substeps.cflNumber;
+  if (settings.substeps.cflNumber == 0.f) s << ", the solver's default " << settings.substeps.cflFor(settings.solver);
+  s << ", dx = " << settings.dx
     << " m). Use a softer material or a larger dx, or advance by less at a time";
   throw InvalidArgument("Scene::advance dt", validate::show(dt), s.str());
 }
