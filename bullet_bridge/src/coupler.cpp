@@ -24,6 +24,8 @@ struct Coupler::Link {
   ShapeId shape;
   bool dynamic;
   btVector3 force{0, 0, 0}, torque{0, 0, 0};  ///< multibody: applied over the next tick
+  /// the impulse of the last advance over the ticks of its interval: given each tick
+  btVector3 shareLinear{0, 0, 0}, shareAngular{0, 0, 0};
 };
 
 namespace {
@@ -69,12 +71,14 @@ struct Coupler::SlicerLink {
   BodyFrame frame;
   SlicerId slicer;
   QuadSlicerDesc blade;  ///< as given: its outline for debugDraw (the scene keeps no copy we can read)
+  ShapeImpulse share{};  ///< the last advance's impulse over the ticks of its interval
 };
 
 struct Coupler::NeedleLink {
   BodyFrame frame;
   CurveId curve;
   ArcDesc needle;  ///< as given: its arc for debugDraw
+  ShapeImpulse share{};  ///< the last advance's impulse over the ticks of its interval
 };
 
 struct Coupler::ThreadLink {
@@ -219,7 +223,27 @@ void Coupler::hookedTick(float dt, bool pre) noexcept {
         l.force = l.torque = btVector3(0, 0, 0);
       }
     takeBackThreadForces();
+    resetInterval();  // the next tick advances the scene from where it was put back
   }
+}
+
+void Coupler::resetInterval() {
+  intervalTick_ = 0;
+  for (Link& l : links_) l.shareLinear = l.shareAngular = btVector3(0, 0, 0);
+  for (SlicerLink& l : slicers_) l.share = {};
+  for (NeedleLink& l : needles_) l.share = {};
+}
+
+void Coupler::setTissueInterval(int ticks) {
+  if (ticks < 1) throw InvalidArgument("Coupler::setTissueInterval ticks", std::to_string(ticks), "must be >= 1");
+  if (ticks > 1 && !threads_.empty())
+    throw InvalidArgument("Coupler::setTissueInterval ticks", std::to_string(ticks),
+                          "must be 1 with threads coupled (their segment forces and added mass are per tick)");
+  if (intervalTick_ != 0)
+    throw InvalidArgument("Coupler::setTissueInterval ticks", std::to_string(ticks),
+                          "cannot change while an interval is open (the scene is " +
+                              std::to_string(tissueInterval_ - intervalTick_) + " tick(s) ahead of Bullet)");
+  tissueInterval_ = ticks;
 }
 
 ShapeId Coupler::addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,
@@ -315,6 +339,9 @@ std::vector<Vec3f> toVecs(const std::vector<btVector3>& v) {
 
 CurveId Coupler::addThread(btMultiBody* thread, const ThreadCoupling& options) {
   if (!thread) throw InvalidArgument("Coupler::addThread thread", "null", "needs a btMultiBody");
+  if (tissueInterval_ > 1)
+    throw InvalidArgument("Coupler::addThread thread", "with a tissue interval of " + std::to_string(tissueInterval_),
+                          "threads need the tissue to advance every tick (setTissueInterval(1))");
   for (const ThreadLink& t : threads_)
     if (t.thread == thread) throw InvalidArgument("Coupler::addThread thread", "already coupled", "one curve per thread");
   LineSegmentsDesc d;
@@ -523,6 +550,10 @@ void Coupler::refuseCurvesInCheckpoints() const {
 
 std::vector<uint8_t> Coupler::bodiesAttachment() const {
   refuseCurvesInCheckpoints();
+  if (intervalTick_ != 0)
+    throw CheckpointError(CheckpointError::Reason::Unsupported,
+                          "the tissue interval is open: the scene is " + std::to_string(tissueInterval_ - intervalTick_) +
+                              " tick(s) ahead of Bullet; save between intervals");
   checkpoint::Writer w;
   w.section("coupled bodies");
   w.put((uint64_t)links_.size());
@@ -603,6 +634,7 @@ void Coupler::loadFromMemory(const std::vector<uint8_t>& bytes) {
     }
   }
   for (Link& l : links_) l.force = l.torque = btVector3(0, 0, 0);
+  resetInterval();
 }
 
 void Coupler::load(const std::string& path) { loadFromMemory(checkpoint::readFile(path)); }
@@ -611,7 +643,37 @@ void Coupler::setUserTickCallback(std::function<void(float)> callback) { userCal
 
 void Coupler::tick(float dt) {
   lastDt_ = dt;
+  advancedThisTick_ = false;
   if (preTickCallback_) preTickCallback_(dt);
+  if (intervalTick_ == 0) {
+    advanceTissue(dt);
+    advancedThisTick_ = true;
+  }
+  intervalTick_ = (intervalTick_ + 1) % tissueInterval_;
+  applyShares(dt);
+}
+
+void Coupler::applyShares(float dt) {
+  for (Link& l : links_) {
+    if (!l.dynamic) continue;
+    if (l.rigid) {
+      l.rigid->applyCentralImpulse(l.shareLinear);
+      l.rigid->applyTorqueImpulse(l.shareAngular);
+      l.rigid->activate();
+    } else if (l.multi) {
+      // a multibody takes its share as a force over this tick
+      l.force = l.shareLinear / dt;
+      l.torque = l.shareAngular / dt;
+      addLinkForce(l.multi, l.link, l.force, l.torque);
+      l.multi->wakeUp();
+    }
+  }
+  // a dynamic scalpel or needle takes its share, given about its tool frame's origin
+  for (const SlicerLink& l : slicers_) l.frame.receive(l.share);
+  for (const NeedleLink& l : needles_) l.frame.receive(l.share);
+}
+
+void Coupler::advanceTissue(float dt) {
   // 1. shapes take the bodies' poses and velocities after Bullet's step
   for (const Link& l : links_) {
     const btTransform& t = l.object->getWorldTransform();
@@ -630,28 +692,26 @@ void Coupler::tick(float dt) {
     scene_.setCurvePoints(t.curve, toVecs(threadPoints(t.thread)), toVecs(threadPointVelocities(t.thread)));
     if (t.addedMass) t.advanced = segmentVelocities(t.thread);
   }
-  // 2. the tissue advances over the tick with its own substeps
-  scene_.step(dt);
-  // 3. the momentum the grid gave each shape goes back to its body
+  // 2. the tissue advances over the tick (the interval's ticks) with its own substeps
+  const int n = tissueInterval_;
+  scene_.step(dt * (float)n);
+  // 3. the momentum the grid gave each shape goes back to its body, a share per tick
+  // (applyShares; J / 1 is J bit for bit with an interval of one tick)
   for (Link& l : links_) {
     if (!l.dynamic) continue;
     const ShapeImpulse J = scene_.shapeImpulse(l.shape);
-    if (l.rigid) {
-      l.rigid->applyCentralImpulse(toBt(J.linear));
-      l.rigid->applyTorqueImpulse(toBt(J.angular));
-      l.rigid->activate();
-    } else if (l.multi) {
-      // a multibody takes the impulse as a force over this tick
-      l.force = toBt(J.linear) / dt;
-      l.torque = toBt(J.angular) / dt;
-      addLinkForce(l.multi, l.link, l.force, l.torque);
-      l.multi->wakeUp();
-    }
+    l.shareLinear = toBt(J.linear) / (btScalar)n;
+    l.shareAngular = toBt(J.angular) / (btScalar)n;
   }
-  // a dynamic scalpel or needle takes its impulse, given about its tool frame's origin
-  for (const SlicerLink& l : slicers_) l.frame.receive(scene_.slicerImpulse(l.slicer));
-  for (const NeedleLink& l : needles_) l.frame.receive(scene_.curveImpulse(l.curve));
-  // each thread segment takes its impulse (about the segment's midpoint) as a force over
+  auto share = [n](ShapeImpulse J) {
+    const float k = (float)n;
+    J.linear = {J.linear.x / k, J.linear.y / k, J.linear.z / k};
+    J.angular = {J.angular.x / k, J.angular.y / k, J.angular.z / k};
+    return J;
+  };
+  for (SlicerLink& l : slicers_) l.share = share(scene_.slicerImpulse(l.slicer));
+  for (NeedleLink& l : needles_) l.share = share(scene_.curveImpulse(l.curve));
+  // each thread segment (threads only with an interval of one tick) takes its impulse (about the segment's midpoint) as a force over
   // this tick on its link, moved to the link's centre of mass
   for (ThreadLink& t : threads_) {
     if (!t.dynamic) continue;

@@ -36,6 +36,17 @@
 ///
 /// The scene is as it was before the failed tick (Scene::fetchResults), so its clock
 /// counts the completed ticks only.
+///
+/// Coupling at the rate the solver wants (setTissueInterval): a solver whose stable step
+/// is longer than Bullet's tick (PB-MPM) need not advance at every tick. With an interval
+/// of n ticks the tissue advances once every n ticks, over all n at once, at the start of
+/// the first, from the bodies' poses and velocities then (its dynamic shapes move on with
+/// their own mass and gravity through the advance); the momentum the grid gave each shape
+/// goes to its body spread evenly over the n ticks (a share of 1/n as an impulse before
+/// each tick, or as a force over it), so at the end of the interval Bullet's body has it
+/// all, and the next advance takes the bodies' states again. Within an interval the
+/// scene's clock is ahead of Bullet's. What it costs in accuracy is measured in
+/// tests/test_bullet_coupling.cpp (TissueInterval) and bench/results/embedding_realtime.md.
 #include <exception>
 #include <functional>
 #include <optional>
@@ -195,8 +206,21 @@ class Coupler {
   /// callback it does not run while an error is kept (see the top of this file).
   void setPreTickCallback(std::function<void(float)> callback);
   /// Length of the last internal tick [s] (0 before the first): a needle's force is
-  /// Scene::curveImpulse / lastTickDt(), a segment's likewise.
+  /// Scene::curveImpulse / (tissueInterval() lastTickDt()), a segment's likewise.
   float lastTickDt() const { return lastDt_; }
+
+  /// Advances the tissue once every `ticks` internal ticks (>= 1; 1, the default: every
+  /// tick), over the whole interval (see the top of this file). For fixed ticks
+  /// (stepSimulation with maxSubSteps > 0): the advance covers `ticks` times the tick it
+  /// starts in. From the next tick that starts an interval; while one is open (the scene
+  /// ahead of Bullet) the call throws InvalidArgument. Not with threads (addThread): their
+  /// segments' forces and added mass are per tick.
+  void setTissueInterval(int ticks);
+  int tissueInterval() const { return tissueInterval_; }
+  /// Whether the tissue advanced in the last tick (at every tick with an interval of 1):
+  /// the scene's impulses (Scene::shapeImpulse, ...) are those of that advance, over
+  /// tissueInterval() ticks.
+  bool tissueAdvanced() const { return advancedThisTick_; }
 
   /// Called after each internal tick, with the tick length [s].
   void setUserTickCallback(std::function<void(float)> callback);
@@ -219,7 +243,9 @@ class Coupler {
   /// a checkpoint whose coupled bodies differ in number or kind from this coupler's, and
   /// then changes neither the scene nor the bodies. A coupler with needles or threads
   /// (addNeedle, addThread) refuses both save and load (CheckpointError, Unsupported):
-  /// their curves' state is not in checkpoints yet.
+  /// their curves' state is not in checkpoints yet. With a tissue interval, save() refuses
+  /// (Unsupported) while an interval is open (the scene ahead of Bullet); stepSimulation
+  /// by whole intervals saves between them.
   void save(const std::string& path) const;
   std::vector<uint8_t> saveToMemory() const;
   void load(const std::string& path);
@@ -267,6 +293,16 @@ class Coupler {
   std::function<void(float)> userCallback_;
   std::function<void(float)> preTickCallback_;
   float lastDt_ = 0.f;
+  int tissueInterval_ = 1;          ///< ticks per tissue advance
+  int intervalTick_ = 0;            ///< ticks of the open interval done (0: the next tick advances)
+  bool advancedThisTick_ = false;
+  /// Applies each body's share of the last advance's impulses before this tick.
+  void applyShares(float dt);
+  /// Forgets the open interval and its shares (after an error, a load).
+  void resetInterval();
+  /// Steps 1-3 of the coupling: bodies to shapes, the scene's advance over the interval
+  /// starting with this tick of length dt, the impulses as shares.
+  void advanceTissue(float dt);
   std::exception_ptr error_;
 };
 
