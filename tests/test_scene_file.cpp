@@ -151,6 +151,11 @@ TEST(SceneFileErrors, ToolAndThreadErrorsAreRenamedToTheirKeys) {
   EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"start": [0, 0.2, 0], "pins": [{"point": 31}]}]})")
                 .rfind("threads[0].pins[0].point = 31: ", 0),
             0u);
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"start": [0, 0.2, 0], "tick": 0}]})"),
+            "threads[0].tick = 0.000000: must be finite and > 0");
+  EXPECT_EQ(loadError(std::string("{") + kDomain +
+                      R"(, "threads": [{"start": [0, 0.2, 0], "coupling": {"dynamic": false, "addedMass": true}}]})"),
+            "threads[0].coupling.addedMass = true: needs dynamic = true (the tissue's push on the links)");
   EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"direction": [1, 0, 0]}]})"),
             "threads[0].start = missing: required unless a pin holds point 0 to a body at a pivot");
   EXPECT_EQ(loadError("{\"settings\": {\"dx\": -1}}"), "settings.dx = -1: must be > 0");

@@ -46,6 +46,10 @@ void validate(const btMultiBodyDynamicsWorld* world, const SutureThreadDesc& d) 
     throw InvalidArgument("SutureThreadDesc.direction", text(d.direction), "must be finite and non-zero");
   if (!(d.friction >= 0.f) || !std::isfinite(d.friction))
     throw InvalidArgument("SutureThreadDesc.friction", std::to_string(d.friction), "must be finite and >= 0");
+  if (!(d.maxTension >= 0.f) || !std::isfinite(d.maxTension))
+    throw InvalidArgument("SutureThreadDesc.maxTension", std::to_string(d.maxTension), "must be finite and >= 0");
+  if (!(d.tick > 0.f) || !std::isfinite(d.tick))
+    throw InvalidArgument("SutureThreadDesc.tick", std::to_string(d.tick), "must be finite and > 0");
 }
 
 /// Number of segments of a thread (the base and its links).
@@ -94,7 +98,10 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
   // heavier (not floored) does
   constexpr btScalar kMinMoment = 1e-12f;  // [kg m^2]
   const btScalar transverse = m * (L * L / 12 + r * r / 4);
-  const btScalar floorMoment = std::max<btScalar>(m * L * L / 12, kMinMoment);
+  // and the turn of a segment under the tension it must carry, resolved by the tick
+  // (SutureThreadDesc::maxTension: omega^2 = T L / I, omega tick <= 1)
+  const btScalar tensionMoment = d.maxTension * L * d.tick * d.tick;
+  const btScalar floorMoment = std::max({m * L * L / 12, kMinMoment, tensionMoment});
   const btVector3 inertia(std::max(m * r * r / 2, floorMoment), std::max(transverse, floorMoment),
                           std::max(transverse, floorMoment));
   auto* shape = new btCapsuleShapeX(r, L - 2 * r);  // end to end: the capsules' tips touch at the joints

@@ -47,6 +47,18 @@ struct SutureThreadDesc {
   /// and a chain pinned at both ends closes a loop the articulated solve does not see.
   bool fixedBase = false;
   float friction = 0.3f;          ///< Bullet friction of the colliders (thread on other Bullet bodies)
+  /// [N] The largest tension the thread must carry stably at Bullet ticks of `tick` [s]
+  /// (a stitch pulled tight: about 0.2 N to close tests/test_suturing_bullet.cpp's wound).
+  /// Under tension T a segment between its neighbours turns about its centre like a
+  /// torsion pendulum, omega^2 = T L / I (L the segment's length, I its transverse
+  /// moment), and Bullet integrates that turn explicitly: it needs omega tick < 2. A 3-0
+  /// suture's 2.5 mm segment (I = 1e-12 kg m^2 after the floor below) stays stable to
+  /// 0.15 N at ticks of 1/9600 s and no further (measured: its pin let go, the chain
+  /// whipped). So every moment is raised to at least tension L tick^2 (omega tick <= 1,
+  /// half the bound). 0: no raise. It makes the thread resist bending faster than a real
+  /// one would, which a stitch pulled slowly does not feel.
+  float maxTension = 0.f;
+  float tick = 1.f / 960;          ///< [s] Bullet's fixed tick for `maxTension`, > 0
   /// Collision filter of the colliders (Bullet's group and mask); mask 0: the thread
   /// touches no other Bullet body (it still touches the tissue through the coupler).
   int collisionGroup = 1;         ///< btBroadphaseProxy::DefaultFilter
@@ -56,8 +68,8 @@ struct SutureThreadDesc {
 /// Builds the thread in `world` (added to it, with a btMultiBodyLinkCollider per segment).
 /// Each segment
 /// has mass m = linearDensity x length / segments and a solid rod's inertia with a floor
-/// (suture.cpp): every principal moment is at least max(m L^2 / 12, 1e-12 kg m^2) (L the
-/// segment length). The first raises the axial moment m r^2 / 2 to the rod's transverse
+/// (suture.cpp): every principal moment is at least max(m L^2 / 12, 1e-12 kg m^2,
+/// maxTension L tick^2) (L the segment length; the last: SutureThreadDesc::maxTension). The first raises the axial moment m r^2 / 2 to the rod's transverse
 /// moment (a thin thread's is 1e-2 to 1e-3 of it: badly conditioned articulated
 /// inertias; spin about the thread's own axis is not resolved anyway). The second keeps
 /// Bullet's float inverse of a joint's 3 x 3 inertia above FLT_MIN: a real suture (1e-4

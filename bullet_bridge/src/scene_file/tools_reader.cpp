@@ -62,6 +62,8 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
   if (n.read("direction", v)) d.direction = bt(v);
   n.read("fixedBase", d.fixedBase);
   n.read("friction", d.friction);
+  n.read("maxTension", d.maxTension);
+  n.read("tick", d.tick);
   n.read("collisionGroup", d.collisionGroup);
   n.read("collisionMask", d.collisionMask);
   std::optional<Quat> bend;
@@ -77,6 +79,7 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
     c.read("friction", coupling.friction);
     c.read("drag", coupling.drag);
     c.read("dynamic", coupling.dynamic);
+    c.read("addedMass", coupling.addedMass);
     c.finish();
   }
   std::vector<Pin> pins;
