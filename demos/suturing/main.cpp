@@ -2,39 +2,21 @@
 // bonded to the ground at its base. A curved needle (a dynamic Bullet body driven like a
 // hand holding a needle holder, coupled as an ArcDesc) turns about its axis: in through
 // the top of block 1, under the gap, out through the top of block 2, on until its tail
-// (and the thread pinned to it) has come through; then it is pulled up and away. The
-// thread (a Featherstone chain coupled as LineSegmentsDesc) is held at its far end by a
-// fixed knot beyond block 1, so pulling tightens it through both bites and draws the
-// wound together. Writes PNGs (cutaway: the front half of the tissue is not drawn, so the
-// needle and thread inside show), suturing.csv (per frame: time, needle force, gap across
-// the wound, thread tension at the knot, wall time) and summary.txt.
+// (and the thread pinned to it) has come through; then it is pulled up and back over the
+// wound. The thread (a Featherstone chain coupled as LineSegmentsDesc, both ways, with the
+// added mass of the tissue it holds) starts at a fixed knot over the wound, so pulling
+// tightens it through both bites and draws the wound together. Writes PNGs (cutaway: the
+// front half of the tissue is not drawn, so the needle and thread inside show),
+// suturing.csv (per frame: time, needle force, gap across the wound, thread tension at the
+// needle's eye, wall time) and summary.txt.
 //
-// Status (dx 2.5 mm, 8 s, 160 frames, 5.5 min on 2 cores; MLS-MPM): the tip presses the
-// first surface in and breaks in at 0.03 N, the needle goes through both bites and comes
-// out with its eye (peak force 0.79 N). The wound is NOT closed by the thread yet: by
-// default the thread (a 3-0 suture, 0.05 g/m, 30 links) is coupled one way (its segments
-// drag the tissue, the tissue does not hold them), so it does not stay in the needle's
-// track and pulling it leaves the gap at 7.13 of 7.25 mm. Coupled both ways (--two-way)
-// the thread comes off its knot (5 g/m: the pin 82 mm open at 3.2 s; 0.05 g/m: 31.8 mm by
-// 0.8 s): the tissue's forces reach the links explicitly over Bullet's tick while Bullet
-// alone solves the chain's joints and pins. Ticking Bullet at the MPM substep
-// (--tick-rate 12000, 0.083 ms) does not help: at 0.05 g/m the thread leaves its knot at
-// 3.1 s as at 1/960 s. It starts in Bullet: 5 ms after the eye's link (the chain's base)
-// took 0.14 m/s per tick in the needle's track, links 2 cm above the tissue moved at
-// 2 m/s, the chain whipped and the knot's pin opened. Nor does building the chain from the
-// knot as Bullet's fixed base (--fixed-knot: one pin left, at the eye; Bullet's tracker
-// lists pins on long chains as unstable, bullet3#471): at 0.05 g/m the eye's pin opened
-// at 3.05 s (0.6 mm, then 3 mm at 3.15 s, 16-48 mm after 3.3 s) as the eye went in, as
-// with two pins; with 15 links of 5 mm it opened by 0.75 s (36 mm), before the thread
-// reached the tissue; with the eye 10 mm behind the tail (--eye-behind 0.01), inside the
-// tissue from the start, it opened by 21 mm in the first 0.05 s. So it fails whenever the
-// eye's link, pinned to the needle, is in the tissue. Closing a stitch is shown with a prescribed
-// thread in tests/test_suturing.cpp (TighteningAStitchClosesTheGap). Since the angular fix
-// (settleBodyVelocity) --two-way --fixed-knot keeps the eye's pin through the whole run
-// (8 s: gap 7.25 -> 7.20 mm, tension under 1e-5 N): a light dynamic segment's link gets only
-// its own momentum change from the tissue, so the thread passes through it; the added-mass
-// coupling (ThreadCoupling::addedMass) holds it, but needs ticks of 1/9600 s and Bullet's
-// pin on the pulled end lets go (README Limits), so the demo does not use it yet.
+// Status (dx 2.5 mm, 8 s, 160 frames, 7 min on 2 shared cores; MLS-MPM): the tip breaks
+// into block 1 at 1.05 s, the needle goes through both bites (peak force 0.134 N) and
+// draws the thread after it; pulled up over the wound the thread, held by the tissue
+// (ThreadCoupling::addedMass) and its eye pinned within 0.5 um, builds 0.154 N of tension
+// and draws the gap from 7.25 to 5.86 mm. Not to a third: at that tension the thread cuts
+// through the tissue rather than drawing it (README Limits; tests/test_suturing_bullet.cpp,
+// PullingTheStitch). --one-way and --no-added-mass show the couplings without the hold.
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
@@ -49,6 +31,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -76,10 +59,12 @@ struct Script {
   float T;                // the run's length [s]
   // phase ends as fractions of the run: wait, turn through both bites and on until the
   // tail is out, pull up and away, hold
-  float u0 = 0.04f, u1 = 0.62f, u2 = 0.85f;
+  float u0 = 0.04f, u1 = 0.62f, u2 = 0.95f;
   float turnEnd = 365.f * kPi / 180.f;  // the thread's eye (24 degrees behind the tail) out
   mpm::Vec3f centre0{0.f, kHeight + kAbove, 0.f};
-  mpm::Vec3f pull{0.02f, 0.03f, 0.f};  // where the needle goes after the turn
+  // where the needle goes after the turn: up, and back over the wound so the thread from
+  // bite 2 runs toward the middle (drawn away to +x it drew block 2's edge away)
+  mpm::Vec3f pull{-0.01f, 0.04f, 0.f};
   static float ramp(float a) {
     a = std::clamp(a, 0.f, 1.f);
     return a * a * (3 - 2 * a);
@@ -130,6 +115,31 @@ std::vector<mpm::Vec3f> polylinePoints(const std::vector<btVector3>& p, float sp
   return out;
 }
 
+/// `n` + 1 points along the polyline `corners` from its first, each `L` from the one
+/// before (straight, so each segment of a thread laid along them has its length): from
+/// each point the next is where the polyline first leaves the sphere of radius L about it.
+/// The polyline must be longer than n L.
+std::vector<btVector3> walkPath(const std::vector<btVector3>& corners, float L, int n) {
+  std::vector<btVector3> p{corners[0]};
+  size_t j = 0;
+  float t = 0.f;
+  while ((int)p.size() <= n) {
+    if (j + 1 >= corners.size()) throw std::runtime_error("walkPath: the path is shorter than the thread");
+    const btVector3 d = corners[j + 1] - corners[j], f = corners[j] - p.back();
+    const float a = d.dot(d), b = 2 * f.dot(d), c = f.dot(f) - L * L;
+    const float disc = b * b - 4 * a * c;
+    const float root = disc >= 0.f ? (-b + std::sqrt(disc)) / (2 * a) : -1.f;
+    if (root >= t && root <= 1.f) {
+      t = root;
+      p.push_back(corners[j] + d * root);
+    } else {
+      ++j;
+      t = 0.f;
+    }
+  }
+  return p;
+}
+
 /// The wound's gap: block 2's leftmost minus block 1's rightmost particle in the band
 /// near the top (the top 4 mm) around the stitch's plane (|z| < 6 mm) [m].
 float gapWidth(const std::vector<mpm::Vec3f>& left, const std::vector<mpm::Vec3f>& right, float top) {
@@ -148,10 +158,14 @@ int main(int argc, char** argv) {
   std::string out = "out/suturing", solverName = "mls";
   int frames = 160, pngEvery = 8, threads = 0;
   float seconds = 8.f, dx = 0.0025f, punctureForce = 0.03f, threadDensity = 5e-5f, eyeBehind = 0.005f;
-  bool twoWay = false, fixedKnot = false;
+  bool oneWay = false, noAddedMass = false;
   int threadSegments = 30;
   float maxForce = 5.f;
-  float tickRate = 960.f;  // Bullet's ticks per second: a thread needs 960 (suture.h)
+  // Bullet's ticks per second: the added-mass coupling pushes links of about 5e-5 kg with
+  // the tissue's elastic force explicitly, which wants ticks this short (at 1/960 s the
+  // pulled stitch of tests/test_suturing_bullet.cpp blew up within 0.03 s); the MPM takes
+  // about one substep per tick here anyway
+  float tickRate = 9600.f;
   app.add_option("--out", out, "output folder");
   app.add_option("--frames", frames, "frames over the run (a CSV row each)")->check(CLI::PositiveNumber);
   app.add_option("--seconds", seconds, "simulated length of the run [s]")->check(CLI::PositiveNumber);
@@ -165,10 +179,9 @@ int main(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--thread-density", threadDensity, "the thread's linear density [kg/m] (3-0 suture: 5e-5)")
       ->check(CLI::PositiveNumber);
-  app.add_flag("--two-way", twoWay, "the thread's segment impulses go back to its links (see the status above)");
-  app.add_flag("--fixed-knot", fixedKnot,
-               "build the thread from its knot as Bullet's fixed base (one pin left, at the eye) instead of "
-               "pinning both ends");
+  app.add_flag("--one-way", oneWay, "the thread drags the tissue, the tissue does not hold it (no impulses to its links)");
+  app.add_flag("--no-added-mass", noAddedMass,
+               "two-way without ThreadCoupling::addedMass: each link gets its segment's own momentum change only");
   app.add_option("--eye-behind", eyeBehind, "the thread's eye behind the needle's tail, along the arc [m]")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--thread-segments", threadSegments, "links of the thread")->check(CLI::PositiveNumber);
@@ -248,85 +261,51 @@ int main(int argc, char** argv) {
     limits.timeConstant = 0.005f;
     mpm::bullet::NeedleDriver driver(&needle, limits);
 
-    // the thread, from the needle's eye over block 1 toward its far side, rising and
-    // slanting toward -z so it does not lie where the needle goes in (the needle drags the
-    // nodes it passes: a thread segment sharing them takes that in one tick) nor on the
-    // tissue (a thread lying in the tissue's contact band while the needle pulled it blew
-    // up); its far end is held fixed there, as a knot or an assistant's hand would
+    // the thread: its knot end Bullet's fixed base, 4 mm above the wound and 6 mm behind
+    // the stitch's plane (a knot tied over the wound: the thread from it into bite 1 and
+    // out of bite 2 to the needle draws both edges toward the middle when pulled; a knot
+    // beyond block 1 drew block 1 away), its other end pinned at the needle's eye. It
+    // starts up and out of the needle's way: from the eye up, back (-z), across and down
+    // to the knot, in the air (a thread lying in the tissue's contact band while the
+    // needle pulled it blew up)
     mpm::bullet::SutureThreadDesc td;
     td.length = kThreadLength;
     td.segments = threadSegments;
     td.radius = 0.15e-3f;
     td.linearDensity = threadDensity;
-    td.damping = 1.f;          // air drag, 1/s
+    td.damping = 1.f;  // air drag, 1/s
+    td.fixedBase = true;
+    td.maxTension = 10.f;  // half a 3-0 suture's breaking load, at this tick (suture.h)
+    td.tick = kTick;
+    td.collisionGroup = 4;  // it touches the tissue through the coupler, the ground in Bullet
+    td.collisionMask = 1;
     // fixed to the needle 5 mm (two cells) behind its tail on the arc's circle, as a
     // swaged eye: a thread segment sharing grid nodes with the needle takes the needle's
     // drag in one tick and blew up (coupler.h, addThread)
     const float eye = -eyeBehind / kNeedleR;
     const btVector3 eyeInNeedle(kNeedleR * std::cos(eye), kNeedleR * std::sin(eye), 0);
-    td.start = script.pose(0.f) * eyeInNeedle;
-    td.direction = btVector3(-1, 0.3f, -0.45f);  // rising: clear of the tissue's contact band
-    td.collisionGroup = 4;     // it touches the tissue through the coupler, the ground in Bullet
-    td.collisionMask = 1;
+    const btVector3 eyeAt = script.pose(0.f) * eyeInNeedle;
+    const float up = kHeight + 0.014f, back = -0.024f;
+    std::vector<btVector3> path = walkPath({eyeAt, btVector3(eyeAt.x(), up, 0), btVector3(eyeAt.x(), up, back),
+                                            btVector3(-0.003f, up, back), btVector3(-0.003f, up, -0.006f),
+                                            btVector3(-0.003f, kHeight + 0.004f, -0.006f)},
+                                           kThreadLength / threadSegments, threadSegments);
+    std::reverse(path.begin(), path.end());  // knot first: the chain's fixed base
+    td.start = path[0];
+    td.direction = path[1] - path[0];
     btMultiBody* thread = mpm::bullet::makeSutureThread(&world, td);
-    // with slack: each joint turned 6 degrees about the vertical, so the thread starts as
-    // a flat arc (its ends 90 % of its length apart) and the needle's first turn does not
-    // pull it taut between its two pins
-    {
-      const btQuaternion toBase = thread->getWorldToBaseRot();  // world to the links' frame
-      const btQuaternion bend(quatRotate(toBase, btVector3(0, 1, 0)), 6.f * kPi / 180.f);
-      for (int i = 0; i < thread->getNumLinks(); ++i) {
-        const btScalar q[4] = {bend.x(), bend.y(), bend.z(), bend.w()};
-        thread->setJointPosMultiDof(i, q);
-      }
-      btAlignedObjectArray<btQuaternion> rot;
-      btAlignedObjectArray<btVector3> pos;
-      thread->forwardKinematics(rot, pos);
-      thread->updateCollisionObjectWorldTransforms(rot, pos);
-    }
-    const btVector3 knotAt = mpm::bullet::threadPoints(thread).back();
-    int eyePoint = 0;  // the thread's point at the needle's eye
-    btMultiBodyPoint2Point* pin = nullptr;  // the pin whose force is the thread's tension
-    if (fixedKnot) {
-      // the same thread built the other way round, from the knot as the chain's fixed
-      // base: segment i of the new chain is segment n - 1 - i of the old turned half a turn
-      // about its z (x reversed), so with F the old frames, G_i = F_(n-1-i) R and each
-      // joint's rotation q becomes R^-1 q^-1 R
-      const int n = threadSegments;
-      const btTransform last = mpm::bullet::threadSegmentTransform(thread, n - 1);
-      btScalar* q0 = thread->getJointPosMultiDof(0);
-      const btQuaternion q(q0[0], q0[1], q0[2], q0[3]);
-      const std::vector<btVector3> p = mpm::bullet::threadPoints(thread);
-      mpm::bullet::destroySutureThread(&world, thread);
-      td.start = p[(size_t)n];
-      td.direction = p[(size_t)n - 1] - p[(size_t)n];
-      td.fixedBase = true;
-      thread = mpm::bullet::makeSutureThread(&world, td);
-      const btQuaternion R(btVector3(0, 0, 1), kPi);
-      thread->setBasePos(last.getOrigin());
-      thread->setWorldToBaseRot((last.getRotation() * R).inverse());
-      const btQuaternion qr = R.inverse() * q.inverse() * R;
-      for (int i = 0; i < thread->getNumLinks(); ++i) {
-        const btScalar v[4] = {qr.x(), qr.y(), qr.z(), qr.w()};
-        thread->setJointPosMultiDof(i, v);
-      }
-      btAlignedObjectArray<btQuaternion> rot;
-      btAlignedObjectArray<btVector3> pos;
-      thread->forwardKinematics(rot, pos);
-      thread->updateCollisionObjectWorldTransforms(rot, pos);
-      eyePoint = n;
-      const std::vector<btVector3> p2 = mpm::bullet::threadPoints(thread);
-      std::printf("thread built from its knot: eye %.2e m, knot %.2e m from the pinned thread's\n",
-                  (p2[(size_t)n] - p[0]).length(), (p2[0] - p[(size_t)n]).length());
-      pin = mpm::bullet::pinThreadPoint(&world, thread, n, &needle, eyeInNeedle);
-    } else {
-      mpm::bullet::attachThreadToNeedle(&world, thread, &needle, eyeInNeedle);
-      pin = mpm::bullet::pinThreadPoint(&world, thread, threadSegments, nullptr, knotAt);
-    }
+    mpm::bullet::layThreadAlong(thread, path);
+    const btVector3 knotAt = path[0];
+    std::printf("thread: knot at (%.1f, %.1f, %.1f) mm, eye at (%.1f, %.1f, %.1f) mm\n", 1e3f * knotAt.x(),
+                1e3f * knotAt.y(), 1e3f * knotAt.z(), 1e3f * eyeAt.x(), 1e3f * eyeAt.y(), 1e3f * eyeAt.z());
+    const int eyePoint = threadSegments;
+    // the thread's tension at its free end, the eye
+    btMultiBodyPoint2Point* pin = mpm::bullet::pinThreadPoint(&world, thread, eyePoint, &needle, eyeInNeedle);
     btMultiBodyPoint2Point* knot = pin;
     mpm::bullet::ThreadCoupling tc;
     tc.friction = 0.1f;
-    tc.dynamic = twoWay;
+    tc.dynamic = !oneWay;
+    tc.addedMass = !oneWay && !noAddedMass;
     coupler.addThread(thread, tc);
 
     // per tick: the driver before the coupling; after it, the frame's sums
@@ -385,7 +364,7 @@ int main(int argc, char** argv) {
       const float turn = 2.f * std::atan2(pose.getRotation().z(), pose.getRotation().w()) * 180.f / kPi;
       // the gap of the thread's pinned point: the knot's, or with --fixed-knot the eye's
       const std::vector<btVector3> tp = mpm::bullet::threadPoints(thread);
-      const float knotGap = fixedKnot ? (tp[(size_t)eyePoint] - pose * eyeInNeedle).length() : (tp.back() - knotAt).length();
+      const float knotGap = (tp[(size_t)eyePoint] - pose * eyeInNeedle).length();  // the eye's pin
       csv << scene.time() << "," << force.length() << "," << gap * 1e3 << "," << tension.length() << ","
           << knotGap * 1e3 << "," << (scene.tipInside(needleCurve) ? 1 : 0) << "," << turn << ","
           << driver.lastForce().length() << "," << wall << std::endl;
