@@ -379,7 +379,7 @@ RestingBox restingBox(SolverType solver, int ticks) {
 // The resting box with the tissue advanced once per frame (4 ticks of 1/240 s): the
 // coupling still carries its weight (the bound of RestingBoxFeelsItsWeight, 2 %), the box
 // rests on the tissue within half a cell and has stopped. MLS-MPM's substep stays its
-// stable step's (shorter than a tick; 23 per 4 ticks instead of 6 per tick), so the box
+// stable step's (shorter than a tick; 25 per 4 ticks instead of 7 per tick), so the box
 // rests where it rests with an advance every tick, to within a tenth of a cell (2 mm;
 // measured 0.1 mm). PB-MPM takes
 // one substep per advance, so its step grows fourfold, and its stiffness comes from its

@@ -258,8 +258,9 @@ ParticleObjectDesc softBlock() {
 // 1 s of settling: the box rings on the undamped elastic block, and only the transfers'
 // numerical damping stills it, which falls with the substep count. At 0.5 s (the settling
 // this test had with cflNumber 0.3) the box still moved at 0.058 m/s with cfl 0.3 and at
-// 0.147 m/s with MLS-MPM's default 0.6, whose 0.5-1 s average read 20.17 N (+2.8 %: the
-// box's own momentum change, 0.138 m/s); at 1 s it moves at 0.010 and 0.009 m/s.
+// 0.147 m/s with cfl 0.6 (MLS-MPM's default is 0.55), whose 0.5-1 s average read 20.17 N
+// (+2.8 %: the box's own momentum change, 0.138 m/s); at 1 s it moves at 0.010 and
+// 0.009 m/s.
 TEST(ShapeContact, RestingBoxIsHeldByItsWeight) {
   Scene scene(contactScene());
   const ParticleObjectId tissue = scene.addParticleObject(softBlock());
