@@ -50,7 +50,7 @@ constexpr float kBlockW = 0.03f, kHeight = 0.02f, kDepth = 0.03f, kGap = 0.006f;
 // leaves block 2 as far right.
 constexpr float kNeedleR = 0.012f, kAbove = 0.006f;
 // The thread: 7.5 cm in 5 mm segments (two cells: shorter or lighter segments are not
-// stable in the coupling, see coupler.h), its far end held by a knot beyond block 1.
+// stable in the coupling, see coupler.h), from a knot over the wound.
 constexpr float kThreadLength = 0.075f;
 
 /// The needle's script over normalised time u in [0, 1] of the run: the arc's centre and
@@ -300,8 +300,7 @@ int main(int argc, char** argv) {
                 1e3f * knotAt.y(), 1e3f * knotAt.z(), 1e3f * eyeAt.x(), 1e3f * eyeAt.y(), 1e3f * eyeAt.z());
     const int eyePoint = threadSegments;
     // the thread's tension at its free end, the eye
-    btMultiBodyPoint2Point* pin = mpm::bullet::pinThreadPoint(&world, thread, eyePoint, &needle, eyeInNeedle);
-    btMultiBodyPoint2Point* knot = pin;
+    btMultiBodyPoint2Point* eyePin = mpm::bullet::pinThreadPoint(&world, thread, eyePoint, &needle, eyeInNeedle);
     mpm::bullet::ThreadCoupling tc;
     tc.friction = 0.1f;
     tc.dynamic = !oneWay;
@@ -309,7 +308,7 @@ int main(int argc, char** argv) {
     coupler.addThread(thread, tc);
 
     // per tick: the driver before the coupling; after it, the frame's sums
-    btVector3 needleImpulse(0, 0, 0), knotImpulse(0, 0, 0);
+    btVector3 needleImpulse(0, 0, 0), eyeImpulse(0, 0, 0);
     coupler.setPreTickCallback([&](float dt) {
       const float t = (float)scene.time() + dt;  // where the needle should be after this tick
       btVector3 v, w;
@@ -320,7 +319,7 @@ int main(int argc, char** argv) {
     coupler.setUserTickCallback([&](float dt) {
       const mpm::ShapeImpulse J = scene.curveImpulse(needleCurve);
       needleImpulse += btVector3(J.linear.x, J.linear.y, J.linear.z);
-      knotImpulse += mpm::bullet::pinForce(knot, dt) * dt;
+      eyeImpulse += mpm::bullet::pinForce(eyePin, dt) * dt;
     });
 
     std::printf("suturing (%s, dx %.1f mm): %zu tissue particles, %.1f s in %d frames, Bullet tick %.3f ms, MPM substep %.3f ms\n",
@@ -334,7 +333,7 @@ int main(int argc, char** argv) {
     mpm::io::SplatRenderer renderer(camera);
     renderer.setGround(0.f, 0.07f);
     std::ofstream csv(out + "/suturing.csv");
-    csv << "time_s,needle_force_N,gap_mm,thread_tension_N,knot_gap_mm,tip_inside,needle_turn_deg,driver_force_N,wall_s\n";
+    csv << "time_s,needle_force_N,gap_mm,thread_tension_N,eye_pin_gap_mm,tip_inside,needle_turn_deg,driver_force_N,wall_s\n";
     const float frameTime = seconds / frames;
     const int ticksPerFrame = std::max(1, (int)std::lround(frameTime / kTick));
     std::vector<mpm::Vec3f> a, b, nearA, nearB;
@@ -349,11 +348,11 @@ int main(int argc, char** argv) {
       const auto start = std::chrono::steady_clock::now();
       btVector3 force(0, 0, 0), tension(0, 0, 0);
       if (f > 0) {
-        needleImpulse = knotImpulse = btVector3(0, 0, 0);
+        needleImpulse = eyeImpulse = btVector3(0, 0, 0);
         world.stepSimulation(ticksPerFrame * kTick, ticksPerFrame + 1, kTick);
         coupler.rethrowError();
         force = needleImpulse / (ticksPerFrame * kTick);  // averaged over the frame
-        tension = knotImpulse / (ticksPerFrame * kTick);
+        tension = eyeImpulse / (ticksPerFrame * kTick);
       }
       const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       wallTotal += wall;
@@ -362,11 +361,11 @@ int main(int argc, char** argv) {
       const float gap = gapWidth(a, b, kHeight);
       const btTransform pose = needle.getCenterOfMassTransform();
       const float turn = 2.f * std::atan2(pose.getRotation().z(), pose.getRotation().w()) * 180.f / kPi;
-      // the gap of the thread's pinned point: the knot's, or with --fixed-knot the eye's
+      // how far the eye's pin is open
       const std::vector<btVector3> tp = mpm::bullet::threadPoints(thread);
-      const float knotGap = (tp[(size_t)eyePoint] - pose * eyeInNeedle).length();  // the eye's pin
+      const float eyeGap = (tp[(size_t)eyePoint] - pose * eyeInNeedle).length();
       csv << scene.time() << "," << force.length() << "," << gap * 1e3 << "," << tension.length() << ","
-          << knotGap * 1e3 << "," << (scene.tipInside(needleCurve) ? 1 : 0) << "," << turn << ","
+          << eyeGap * 1e3 << "," << (scene.tipInside(needleCurve) ? 1 : 0) << "," << turn << ","
           << driver.lastForce().length() << "," << wall << std::endl;
       gapMin = std::min(gapMin, gap);
       peakForce = std::max(peakForce, (float)force.length());
@@ -398,7 +397,7 @@ int main(int argc, char** argv) {
                   "solver %s, dx %.1f mm, %zu particles, %.1f s simulated in %.0f s (%.2f s per frame)\n"
                   "gap across the wound (top 4 mm, |z| < 6 mm): %.2f mm at the start, %.2f mm at the end, %.2f mm at "
                   "the least\n"
-                  "needle force: peak %.3f N (puncture force %.2f N); thread tension at the knot: peak %.3f N, "
+                  "needle force: peak %.3f N (puncture force %.2f N); thread tension at the needle's eye: peak %.3f N, "
                   "at the end %.3f N\n",
                   solverName.c_str(), dx * 1e3, scene.particleCount(), seconds, wallTotal, wallTotal / frames,
                   gap0 * 1e3, gapWidth(a, b, kHeight) * 1e3, gapMin * 1e3, peakForce, arc.punctureForce, peakTension,
