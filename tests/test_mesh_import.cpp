@@ -546,6 +546,34 @@ TEST(MeshImport, GltfLineLoopIsRefused) {
   EXPECT_EQ(loadTriangleMeshFromMemory(gltf.data(), gltf.size(), "gltf").triangleCount(), 12u);
 }
 
+// fuzz_mesh_import found them in CI (seed 1; flaky at the 4 GB limit): GLBs whose JSON
+// chunk's length ran past the file (3.6e9 bytes claimed in 713) kept assimp 5.2.5 busy 20 s
+// and 4 GB. Refused before assimp reads the file: a chunk past the file's end, and a JSON
+// string out of place (not after '{', '[', ',' or ':', or not followed by ':', ',', '}' or
+// ']', or never closed); the box still loads.
+TEST(MeshImport, GltfMalformedJsonIsRefused) {
+  auto message = [](const std::string& bytes, const char* format) -> std::string {
+    try {
+      return std::to_string(loadTriangleMeshFromMemory(bytes.data(), bytes.size(), format).triangleCount()) + " triangles";
+    } catch (const mpm::Error& e) {
+      return e.what();
+    }
+  };
+  for (const char* input : {"regress-glb-string-out-of-place", "regress-glb-json-chunk-past-the-end"}) {
+    const std::string bytes = fileBytes(mpm::test::sourcePath(std::string("tests/fuzz/corpus/mesh/") + input));
+    ASSERT_GT(bytes.size(), 100u);
+    // the fuzz input's first byte picks the format (GLB)
+    EXPECT_NE(message(bytes.substr(1), "glb").find("JSON chunk"), std::string::npos) << input;
+  }
+  const std::string gltf = fileBytes(assetPath("box.gltf"));
+  std::string quoteOutOfStep = gltf, unclosed = gltf;
+  quoteOutOfStep.replace(gltf.find("\"asset\""), 1, "");
+  unclosed.resize(gltf.find("\"asset\"") + 3);
+  for (const std::string& bytes : {quoteOutOfStep, unclosed})
+    EXPECT_NE(message(bytes, "gltf").find("the glTF JSON is not valid at byte"), std::string::npos) << message(bytes, "gltf");
+  EXPECT_EQ(message(gltf, "gltf"), "12 triangles");
+}
+
 // fuzz_mesh_import found it: an OBJ face naming a vertex the file does not have threw from
 // inside assimp's reader ("vertex index out of range"), which leaked the mesh it was
 // building (LeakSanitizer); every index is now checked first and the file refused naming
