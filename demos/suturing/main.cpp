@@ -124,7 +124,7 @@ std::vector<btVector3> walkPath(const std::vector<btVector3>& corners, float L, 
   size_t j = 0;
   float t = 0.f;
   while ((int)p.size() <= n) {
-    if (j + 1 >= corners.size()) throw std::runtime_error("walkPath: the path is shorter than the thread");
+    if (j + 1 >= corners.size()) throw mpm::Error("walkPath: the path is shorter than the thread");
     const btVector3 d = corners[j + 1] - corners[j], f = corners[j] - p.back();
     const float a = d.dot(d), b = 2 * f.dot(d), c = f.dot(f) - L * L;
     const float disc = b * b - 4 * a * c;
