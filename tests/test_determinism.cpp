@@ -9,6 +9,10 @@
 #include <cstring>
 #include <vector>
 
+#include <algorithm>
+#include <random>
+
+#include "backend/cpu/cpu_exec.h"
 #include "mpm/scene.h"
 #include "scenes/standard_scenes.h"
 #include "solver_cases.h"
@@ -73,6 +77,62 @@ TEST_P(Determinism, PinnedTrajectoryHash) {
                           : GetParam() == SolverType::StandardMpm ? 0x9cd6dbd94161b758ull
                                                                   : 0x40a06548d7c9850eull;
   EXPECT_EQ(h, pinned) << "the trajectory changed: if the physics was meant to change, pin the new hash";
+}
+
+// The CPU binning is a parallel counting sort: each thread takes a range of particles. Its
+// result must be the one stable sort by block (and the same active blocks in the same
+// slots) whatever the thread count, also for particles in no particular order (after a
+// cut or an import, before the first reorder) and with strays off the grid (binned to
+// block 0, as P2G expects).
+TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
+  GridGeometry geo;
+  geo.lower = {-1.f, -1.f, -1.f};
+  geo.dx = 0.05f;
+  geo.invDx = 1.f / geo.dx;
+  for (int a = 0; a < 3; ++a) {
+    geo.cells[a] = 40;
+    geo.blocks[a] = (geo.cells[a] + kBlockSize) / kBlockSize;
+  }
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> inBox(-0.6f, 0.7f), offGrid(-3.f, 3.f);
+  const size_t n = 20011;  // above CpuExec::kMinParallel, not a multiple of any team size
+  std::vector<Vec3f> x(n), v(n);
+  for (size_t i = 0; i < n; ++i)
+    x[i] = i % 97 == 0 ? Vec3f{offGrid(rng), offGrid(rng), offGrid(rng)} : Vec3f{inBox(rng), inBox(rng), inBox(rng)};
+  // and a sorted stretch: long runs of one block, as after the per-frame reorder
+  std::sort(x.begin() + n / 2, x.end(), [&](const Vec3f& a, const Vec3f& b) {
+    return geo.particleBlock(a) < geo.particleBlock(b);
+  });
+  ParticleView P;
+  P.x = x.data();
+  P.v = v.data();
+  P.count = (uint32_t)n;
+
+  std::vector<uint32_t> key(n), want(n);
+  size_t strays = 0;
+  for (size_t i = 0; i < n; ++i) {
+    key[i] = geo.stencilInside(x[i]) ? geo.particleBlock(x[i]) : 0u;
+    strays += !geo.stencilInside(x[i]);
+  }
+  ASSERT_GT(strays, 50u);
+  for (size_t i = 0; i < n; ++i) want[i] = (uint32_t)i;
+  std::stable_sort(want.begin(), want.end(), [&](uint32_t a, uint32_t b) { return key[a] < key[b]; });
+
+  std::vector<uint32_t> active1;
+  for (int threads : {1, 2, 3, 4}) {
+    CpuExec exec(threads);
+    CpuExec::Binning bins(exec, geo);
+    for (int pass = 0; pass < 2; ++pass) {  // the second reuses the tables the first left
+      exec.bin(P, bins);
+      EXPECT_TRUE(std::equal(want.begin(), want.end(), bins.order())) << threads << " threads, pass " << pass;
+      const GridView g = bins.gridView();
+      const std::vector<uint32_t> active(g.activeBlocks, g.activeBlocks + g.activeCount);
+      if (threads == 1 && pass == 0) active1 = active;
+      EXPECT_EQ(active, active1) << threads << " threads, pass " << pass;
+      for (uint32_t s = 0; s < g.activeCount; ++s) EXPECT_EQ(g.blockSlot[g.activeBlocks[s]], (int32_t)s);
+    }
+  }
+  EXPECT_GT(active1.size(), 100u);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solverParamName());

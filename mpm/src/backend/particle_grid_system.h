@@ -11,6 +11,7 @@
 // through a per-block tile, blocks coloured so that no atomics are needed; on the GPU
 // straight into the grid with atomics). Kernel bodies are the host/device functions in
 // solvers/ and grid/, called with either kind of node accessor.
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <type_traits>
@@ -246,11 +247,23 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     auto t0 = Clock::now();
     exec_.bin(view(), bins_);
     if constexpr (PermutesInPlace<Exec>::value) {
-      // one bit per particle marks the places already filled
-      marks_.resizeDiscard((count_ + 63) / 64);
-#define MPM_PERMUTE(type, name) exec_.permuteInPlace(name##_.data(), bins_.order(), count_, marks_.data());
-      MPM_PARTICLE_FIELDS(MPM_PERMUTE)
+      // the fields are reordered side by side, one per thread at a time (each with its own
+      // marks: one bit per particle for the places already filled)
+      constexpr int kFields = 0
+#define MPM_COUNT(type, name) +1
+          MPM_PARTICLE_FIELDS(MPM_COUNT);
+#undef MPM_COUNT
+      const size_t words = (count_ + 63) / 64;
+      marks_.resizeDiscard(words * (size_t)std::min(exec_.threads, kFields));
+      const uint32_t* order = bins_.order();
+      exec_.forEachTask(kFields, count_, [&](int field, int slot) {
+        uint64_t* marks = marks_.data() + (size_t)slot * words;
+        int k = 0;
+#define MPM_PERMUTE(type, name) \
+  if (field == k++) exec_.permuteInPlace(name##_.data(), order, count_, marks);
+        MPM_PARTICLE_FIELDS(MPM_PERMUTE)
 #undef MPM_PERMUTE
+      });
       timings.sort += seconds(t0);
       return;
     }

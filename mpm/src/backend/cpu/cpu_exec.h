@@ -16,6 +16,8 @@
 // Built without OpenMP (MPM_WITH_OPENMP=OFF, the ThreadSanitizer build): the pragmas are
 // ignored and every loop runs on the calling thread.
 inline int omp_get_max_threads() { return 1; }
+inline int omp_get_thread_num() { return 0; }
+inline int omp_get_num_threads() { return 1; }
 #endif
 
 #include <algorithm>
@@ -163,6 +165,19 @@ struct CpuExec {
     }
   }
 
+  /// f(task, slot) for task in [0, n), tasks handed out one at a time; `slot` (below
+  /// `threads`) names the thread running it, for per-thread scratch. `work`: the elements
+  /// the tasks touch together, for the kMinParallel test.
+  template <class F>
+  void forEachTask(int n, size_t work, const F& f) {
+#pragma omp parallel num_threads(std::min(threads, n)) if ((long long)work >= kMinParallel)
+    {
+      const int slot = omp_get_thread_num();
+#pragma omp for schedule(dynamic, 1)
+      for (int task = 0; task < n; ++task) f(task, slot);
+    }
+  }
+
   template <class F>
   void forEach(size_t n, const F& f) {
 #pragma omp parallel for num_threads(threads) schedule(static) if ((long long)n >= kMinParallel)
@@ -186,29 +201,75 @@ struct CpuExec {
 
     /// Bins the particles: `order` lists particle indices block by block (stable),
     /// `blocks` the occupied blocks in index order with their ranges in `order`.
+    ///
+    /// A stable counting sort over the occupied blocks only, in parallel: each thread takes
+    /// a contiguous range of particles, notes the blocks it sees first, counts its range
+    /// per block and places its range after the ranges before it. The result is the one
+    /// stable sort by block, whatever the thread count.
     void build(const ParticleView& P, int threads) {
       const size_t n = P.count;
       keys_.resize(n);
       order_.resize(n);
-#pragma omp parallel for num_threads(threads) schedule(static) if ((long long)n >= kMinParallel)
-      for (long long i = 0; i < (long long)n; ++i)
-        keys_[i] = geo_.stencilInside(P.x[i]) ? geo_.particleBlock(P.x[i]) : 0u;  // strays: skipped by P2G
-
-      // counting sort over the occupied blocks only; blockCount_ is all zero between calls
-      occupied_.clear();
-      for (size_t i = 0; i < n; ++i)
-        if (blockCount_[keys_[i]]++ == 0) occupied_.push_back(keys_[i]);
-      std::sort(occupied_.begin(), occupied_.end());
-      start_.resize(occupied_.size() + 1);
-      uint32_t running = 0;
-      for (size_t j = 0; j < occupied_.size(); ++j) {
-        start_[j] = running;
-        running += blockCount_[occupied_[j]];
-        blockCount_[occupied_[j]] = (uint32_t)j;  // reused as block -> rank until reset
+      const int team = (long long)n >= kMinParallel ? std::max(threads, 1) : 1;
+      if ((int)firstSeen_.size() < team) firstSeen_.resize(team);
+      size_t nOcc = 0;
+#pragma omp parallel num_threads(team)
+      {
+        const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+        const size_t lo = n * t / nt, hi = n * (t + 1) / nt;
+        // blockCount_ (all zero between calls) first marks the blocks seen; particles come
+        // sorted by block since the last reorder, so a block repeats in runs
+        std::vector<uint32_t>& seen = firstSeen_[t];
+        seen.clear();
+        uint32_t last = 0xffffffffu;
+        for (size_t i = lo; i < hi; ++i) {
+          // GridGeometry::particleBlock, or 0 for a stray (skipped by P2G): one stencilBase
+          int base[3];
+          Vec3f fx;
+          geo_.stencilBase(P.x[i], base, fx);
+          const uint32_t key = geo_.baseInside(base) ? geo_.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits,
+                                                                       base[2] >> kBlockBits)
+                                                     : 0u;
+          keys_[i] = key;
+          if (key == last) continue;
+          last = key;
+          if (__atomic_load_n(&blockCount_[key], __ATOMIC_RELAXED) == 0 &&
+              __atomic_exchange_n(&blockCount_[key], 1u, __ATOMIC_RELAXED) == 0)
+            seen.push_back(key);
+        }
+#pragma omp barrier
+#pragma omp single
+        {
+          occupied_.clear();
+          for (int s = 0; s < nt; ++s) occupied_.insert(occupied_.end(), firstSeen_[s].begin(), firstSeen_[s].end());
+          std::sort(occupied_.begin(), occupied_.end());
+          nOcc = occupied_.size();
+          for (size_t j = 0; j < nOcc; ++j) blockCount_[occupied_[j]] = (uint32_t)j;  // block -> rank until reset
+          cursor_.assign((size_t)nt * nOcc, 0u);
+        }
+        // this range's particles per block
+        uint32_t* cursor = cursor_.data() + (size_t)t * nOcc;
+        for (size_t i = lo; i < hi; ++i) ++cursor[blockCount_[keys_[i]]];
+#pragma omp barrier
+#pragma omp single
+        {
+          // where each range's particles of each block start: blocks in order, ranges in
+          // order within a block
+          start_.resize(nOcc + 1);
+          uint32_t running = 0;
+          for (size_t j = 0; j < nOcc; ++j) {
+            start_[j] = running;
+            for (int s = 0; s < nt; ++s) {
+              uint32_t& c = cursor_[(size_t)s * nOcc + j];
+              const uint32_t here = c;
+              c = running;
+              running += here;
+            }
+          }
+          start_[nOcc] = running;
+        }
+        for (size_t i = lo; i < hi; ++i) order_[cursor[blockCount_[keys_[i]]]++] = (uint32_t)i;
       }
-      start_[occupied_.size()] = running;
-      cursor_.assign(start_.begin(), start_.end() - 1);
-      for (size_t i = 0; i < n; ++i) order_[cursor_[blockCount_[keys_[i]]]++] = (uint32_t)i;
       for (uint32_t b : occupied_) blockCount_[b] = 0;
 
       activate();
@@ -392,6 +453,7 @@ struct CpuExec {
     std::vector<int32_t> blockSlot_;
     std::vector<uint32_t> keys_, order_, occupied_, start_, cursor_, active_;
     std::vector<uint32_t> colour_[8];
+    std::vector<std::vector<uint32_t>> firstSeen_;  ///< per thread: blocks it saw first
     std::vector<GridNode> nodes_;
     std::vector<ContactSums> blockSums_;
     std::vector<uint8_t> touched_;
