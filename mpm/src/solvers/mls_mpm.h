@@ -23,12 +23,19 @@ struct MlsMpm {
     float dt;
     bool cuts;          ///< some particle may be cut (ParticleGridSystem::cuts)
     const Vec3f* push;  ///< resistance to cutting this substep, or null (ParticleGridSystem::cuttingPush)
+    /// The material enters only through tau = kirchhoffStress(materials[P.object[p]],
+    /// P.F[p]): the CPU computes it for many particles at once (backend/cpu/stress_batch.h)
+    /// and hands it to scatterStressed; the device calls operator().
+    static constexpr bool kBatchedStress = true;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
+      scatterStressed(p, kirchhoffStress(materials[P.object[p]], P.F[p]), nodes);
+    }
+    template <class Nodes>
+    MPM_HD void scatterStressed(uint32_t p, const Mat3f& tau, Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
-      const Mat3f tau = kirchhoffStress(materials[P.object[p]], P.F[p]);
       const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
       if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, M^-1 their own
         scatterCutParticle<kCentroid>(st, geo.dx, P.cut[p], m, mv, m * P.C[p], (-dt * P.volume0[p]) * tau, false,

@@ -27,8 +27,15 @@ struct StandardMpm {
     float dt;
     bool cuts;          ///< some particle may be cut (ParticleGridSystem::cuts)
     const Vec3f* push;  ///< resistance to cutting this substep, or null (ParticleGridSystem::cuttingPush)
+    /// The material enters only through tau = kirchhoffStress(materials[P.object[p]],
+    /// P.F[p]) (CPU: computed for many particles at once, backend/cpu/stress_batch.h).
+    static constexpr bool kBatchedStress = true;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
+      scatterStressed(p, kirchhoffStress(materials[P.object[p]], P.F[p]), nodes);
+    }
+    template <class Nodes>
+    MPM_HD void scatterStressed(uint32_t p, const Mat3f& tau, Nodes& nodes) const {
       const Vec3f xp = P.x[p];
       const QuadraticStencil st(geo, xp);
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
@@ -38,14 +45,14 @@ struct StandardMpm {
       const Vec3f pushed = push ? push[p] : Vec3f{0.f, 0.f, 0.f};
       if (cuts && isCut(P.cut[p])) {  // the nodes on its side of the cut, with their own gradients
         scatterCutParticle<kCentroid>(st, geo.dx, P.cut[p], m, mv, Mat3f{},
-                                      (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]), true,
+                                      (-dt * P.volume0[p]) * tau, true,
                                       pushed, xp, P.touch[p], nodes);
         return;
       }
       const Float4 push4 = Float4::make(0.f, pushed.x, pushed.y, pushed.z);
       // dt f_i = -dt V0 tau grad w_i, with grad w_i = (dw0 w1 w2, w0 dw1 w2, w0 w1 dw2):
       // per node w2 (dw0 w1 T0 + w0 dw1 T1) + dw2 (w0 w1 T2), T the impulse's columns
-      const Mat3f impulse = (-dt * P.volume0[p]) * kirchhoffStress(materials[P.object[p]], P.F[p]);
+      const Mat3f impulse = (-dt * P.volume0[p]) * tau;
       const Float4 t0 = Float4::make(0.f, impulse.m[0][0], impulse.m[1][0], impulse.m[2][0]);
       const Float4 t1 = Float4::make(0.f, impulse.m[0][1], impulse.m[1][1], impulse.m[2][1]);
       const Float4 t2 = Float4::make(0.f, impulse.m[0][2], impulse.m[1][2], impulse.m[2][2]);

@@ -27,6 +27,7 @@ inline int omp_get_num_threads() { return 1; }
 #include <type_traits>
 #include <vector>
 
+#include "backend/cpu/stress_batch.h"
 #include "backend/sim_backend.h"
 
 namespace mpm {
@@ -42,6 +43,13 @@ template <class F, class = void>
 struct UsesImpulse : std::true_type {};
 template <class F>
 struct UsesImpulse<F, std::void_t<decltype(F::kStressImpulse)>> : std::bool_constant<F::kStressImpulse> {};
+/// kBatchedStress: P2G needs of the material only tau = kirchhoffStress(materials[
+/// P.object[p]], P.F[p]) and takes it in scatterStressed(p, tau, nodes), so the CPU
+/// computes it for a run of particles at once (kirchhoffStressBatch).
+template <class F, class = void>
+struct BatchesStress : std::false_type {};
+template <class F>
+struct BatchesStress<F, std::void_t<decltype(F::kBatchedStress)>> : std::bool_constant<F::kBatchedStress> {};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -121,6 +129,8 @@ struct CpuExec {
   static constexpr long long kMinParallel = 4096;
   /// Same, in grid blocks (one block holds up to a few hundred particles).
   static constexpr long long kMinParallelBlocks = 16;
+  /// P2G computes the stresses of this many particles of a block at once (BatchesStress).
+  static constexpr int kStressRun = 64;
 
   explicit CpuExec(int threadCount) { setThreads(threadCount); }
   /// Every loop reads `threads` when it starts: results do not depend on it (see above).
@@ -291,13 +301,23 @@ struct CpuExec {
       {
         constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
         BlockTile tile;
+        Mat3f tau[kStressRun];  // BatchesStress: the stresses of the next particles
         for (const auto& blocks : colour_) {
 #pragma omp for schedule(dynamic, 1)
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
             tile.clear<kMx, kDmv>();
-            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
+            if constexpr (BatchesStress<F>::value) {
+              for (uint32_t r = start_[j]; r < start_[j + 1];) {
+                const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
+                kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
+                for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                r += n;
+              }
+            } else {
+              for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
+            }
             tile.flush<kMx, kDmv>(grid);
           }
         }
