@@ -298,7 +298,7 @@ double meanThreadForce(Scene& scene, CurveId id, Vec3f v, int frames, float dt) 
 
 // Scene::segmentContactMasses: a kinematic thread of 8 segments lying at rest in a block
 // (off the node lines: 0.4 and 0.44 dx), its last two segments beyond the block's end. Each
-// node within the contact band (0.75 dx of the centre line) is held by its nearest segment
+// node within the contact band (kThreadReach: 1.5 dx of the centre line) is held by its nearest segment
 // only, and inside a uniform block a node carries rho dx^3 (2 x 2 x 2 particles a cell,
 // the quadratic B-spline's partition of unity): the segments' contact masses sum to the
 // band's node count times rho dx^3 (1e-4), those outside the material hold nothing, and all
@@ -310,8 +310,9 @@ TEST(Suturing, SegmentContactMassesAreTheNodesTheyHold) {
   slab.center = {0.f, 0.01f, 0.f};  // x in [-15, 15] mm
   scene.addParticleObject(slab);
   LineSegmentsDesc t;
-  for (int i = 0; i <= 8; ++i) t.points.push_back({-0.01f + kDx * i + (i >= 7 ? 0.01f : 0.f), 0.011f, 0.0011f});
-  // points 7 and 8 jump 1 cm: segment 6 runs out of the block, 7 lies outside it (x 27.5-30 mm)
+  // from x = -7.5 mm: every node of the band has its whole stencil (1.5 dx) inside the block
+  for (int i = 0; i <= 8; ++i) t.points.push_back({-0.0075f + kDx * i, 0.011f, 0.0011f});
+  // points 7 and 8 jump: segment 6 runs out of the block, 7 lies outside it (x 27.5-30 mm)
   t.points[7].x = 0.0275f;
   t.points[8].x = 0.03f;
   const CurveId id = scene.addCurve(t);
@@ -336,7 +337,7 @@ TEST(Suturing, SegmentContactMassesAreTheNodesTheyHold) {
           const float ds = distanceToSegment(x, t.points[s], t.points[s + 1]);
           if (ds < d) d = ds, nearest = s;  // a tie goes to the earlier segment
         }
-        if (d < 0.75f * kDx && nearest <= 5) ++held;  // segments 0-5: nodes inside, x <= 5 mm
+        if (d < kThreadReach * kDx && nearest <= 5) ++held;  // segments 0-5: nodes inside, x <= 7.5 mm
       }
   const double node = 1000.0 * kDx * kDx * kDx, inside = Mc[0] + Mc[1] + Mc[2] + Mc[3] + Mc[4] + Mc[5];
   std::printf("contact masses (1e-5 kg): ");

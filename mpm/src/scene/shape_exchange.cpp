@@ -21,8 +21,9 @@ float bondedBand(const SceneSettings& s) { return solverTraits(s.solver).meshles
 /// gets the band that makes up the difference (PartView::band). MTLED: none.
 float thinPartHalfThickness(const SceneSettings& s) { return solverTraits(s.solver).meshless ? 0.f : 0.75f * s.dx; }
 
-/// Radius of a thin curve's contact region on a grid [m] (kCurveReach cells).
+/// Radius of a needle's and of a thread's contact region on a grid [m].
 float curveReach(const SceneSettings& s) { return kCurveReach * s.dx; }
+float threadReach(const SceneSettings& s) { return kThreadReach * s.dx; }
 
 /// Where the parts are anchored (PartView): the domain's centre.
 Vec3f domainCentre(const SceneSettings& s) { return 0.5f * (s.domain.lower + s.domain.upper); }
@@ -90,7 +91,7 @@ BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const
       appendNeedle(c.arc, c.state, c.tipInside, curveReach(settings), settings.dx, pressure,
                    domainCentre(settings), bodies, parts);
     else
-      appendThread(c.thread, c.thread.points, c.thread.velocities, curveReach(settings),
+      appendThread(c.thread, c.thread.points, c.thread.velocities, threadReach(settings),
                    domainCentre(settings), bodies, parts);
   }
   backend.releaseMeshesExcept(meshes);

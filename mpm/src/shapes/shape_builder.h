@@ -60,8 +60,20 @@ void validateCurveDesc(const LineSegmentsDesc& desc);
 /// A thread's points and velocities (as validateCurveDesc checks them), for `count` points.
 void validateCurvePoints(const std::vector<Vec3f>& points, const std::vector<Vec3f>& velocities, size_t count);
 
-/// Radius of a thin curve's contact region about its centre line, in cells.
+/// Radius of a needle's contact region about its centre line, in cells.
 constexpr float kCurveReach = 0.75f;
+
+/// Radius of a thread's contact region about its centre line, in cells. A particle takes
+/// its velocity from the 27 nodes about it, and only those within the band move with the
+/// thread: a particle on a thread's centre line gets as little as 44 % of its weight from
+/// the band at 0.75 dx (the quadratic B-spline, the line anywhere in the cell), so tissue
+/// pressed against a pulled thread streamed through it (a stitch pulled up at 1 cm/s
+/// stalled at 4.4 mm of its 7.25 mm gap, the thread sliding through the tissue at 0.2 N).
+/// At 1.5 dx the band carries at least 98.5 % of it (87 % half a cell off the line): the
+/// stitch closed to 2.5 mm at 0.8 N (tests/test_suturing_bullet.cpp, PullingTheStitch).
+/// The cost: the thread drags the tissue within 1.5 dx of it sideways, as a wire that
+/// thick would, and holds that many more nodes (its added mass).
+constexpr float kThreadReach = 1.5f;
 
 /// Radius about a needle's centre line within which its shaft's friction reaches the
 /// nodes, in cells (PartView::frictionReach: enough nodes across it that their sum does not

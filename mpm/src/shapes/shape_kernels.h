@@ -267,7 +267,8 @@ constexpr float kRestingReach = 0.65f;
 constexpr float kGluedReach = 1.f;
 
 /// Contact of one grid node with a curve's part (kContactCurve): curveVelocity within its
-/// contact region (the band: 0.75 dx about a thin wire's centre line), and a needle's shaft
+/// contact region (the band about a thin wire's centre line: 0.75 dx for a needle, 1.5 dx
+/// for a thread, shapes/shape_builder.h), and a needle's shaft
 /// friction within its reach; past a needle's arc ends no friction (the tip's resistance is
 /// the particles', needleTipResistance).
 MPM_HD bool contactNodeCurve(Vec3f x, float mass, Vec3f& v, const PartView& part, const BodyView& b, ContactSums& sums,
@@ -295,21 +296,29 @@ MPM_HD bool contactNodeCurve(Vec3f x, float mass, Vec3f& v, const PartView& part
   return true;
 }
 
-/// Whether a node is nearer to a neighbouring segment of the same thread than to segment
-/// part `p` (a thread's segments are consecutive capsule parts of kContactCurve bodies):
+/// Whether part `q` is a thread's segment (a thread's segments are consecutive capsule
+/// parts of kContactCurve bodies).
+MPM_HD bool isThreadSegment(const PartView* parts, int nParts, int q, const BodyView* bodies) {
+  return q >= 0 && q < nParts && parts[q].type == kPartCapsule && bodies[parts[q].body].mode == kContactCurve;
+}
+
+/// Whether a node is nearer to another segment of the same thread than to segment part `p`:
 /// the thread is one curve, so a node is in contact with its nearest segment only. Shared,
 /// each light segment's implicit exchange counted the node's mass as its own and the
-/// neighbours' together overshot (30 segments of 2 mm at 1 g/m moving +-2 cm/s
-/// alternately: velocity changes of 0.62 m/s in one 1/960 s advance).
+/// others' together overshot (30 segments of 2 mm at 1 g/m moving +-2 cm/s alternately:
+/// velocity changes of 0.62 m/s in one 1/960 s advance). Every segment of the thread is
+/// asked, not only the neighbours: the band (1.5 dx, kThreadReach) is wider than a segment,
+/// so where the thread bends a node lies within the bands of segments two or more apart,
+/// and with only the neighbours asked both took it (a thread drawn sideways through tissue,
+/// its lead segment turned: points at 2.5 m/s).
 MPM_HD bool nearerSegment(Vec3f x, const PartView* parts, int nParts, int p, const BodyView* bodies) {
-  if (parts[p].type != kPartCapsule) return false;
+  if (!isThreadSegment(parts, nParts, p, bodies)) return false;
   Vec3f n;
   const float own = parts[p].distance(x, n);
-  for (int q = p - 1; q <= p + 1; q += 2) {
-    if (q < 0 || q >= nParts || parts[q].type != kPartCapsule || bodies[parts[q].body].mode != kContactCurve) continue;
-    const float other = parts[q].distance(x, n);
-    if (q < p ? other <= own : other < own) return true;  // a tie goes to the earlier segment
-  }
+  for (int q = p - 1; isThreadSegment(parts, nParts, q, bodies); --q)
+    if (parts[q].distance(x, n) <= own) return true;  // a tie goes to the earlier segment
+  for (int q = p + 1; isThreadSegment(parts, nParts, q, bodies); ++q)
+    if (parts[q].distance(x, n) < own) return true;
   return false;
 }
 
