@@ -840,14 +840,15 @@ TEST(ThreadCoupling, AddedMassIsTheHeldNodesAndLeavesWithTheThread) {
 // SutureThreadDesc::maxTension it let go entirely at 0.15 N (TautSegmentsTurnWithinTheTick).
 // Bounds: the gap at most a third; the pin within 1 % of a segment at the end and never open
 // a quarter of one; links within 1 %.
-TEST(PullingTheStitch, ClosesTheGapMlsMpm) {
-  const StitchPull r = pullStitch(SolverType::MlsMpm, true, 3.5f, 1.f / 9600);
+void expectStitchClosed(const StitchPull& r) {
   EXPECT_TRUE(r.finite);
   EXPECT_LE(r.gap, r.gap0 / 3.f);
   EXPECT_LT(r.pinEnd, 0.01);
   EXPECT_LT(r.pin, 0.25);
   EXPECT_LT(r.links, 0.01);
 }
+
+TEST(PullingTheStitch, ClosesTheGapMlsMpm) { expectStitchClosed(pullStitch(SolverType::MlsMpm, true, 3.5f, 1.f / 9600)); }
 
 // The same stitch on PB-MPM (issue: with MLS-MPM and with PB-MPM). DISABLED: it fails.
 // PB-MPM's stiffness comes from its iterations per unit time (solvers/pb_mpm.h), and at
@@ -859,12 +860,7 @@ TEST(PullingTheStitch, ClosesTheGapMlsMpm) {
 // next step: coupling the thread across a tissue interval (Coupler::setTissueInterval refuses
 // threads), so PB-MPM takes its large step while Bullet ticks at 1/9600 s.
 TEST(PullingTheStitch, DISABLED_ClosesTheGapPbMpm) {
-  const StitchPull r = pullStitch(SolverType::PbMpm, true, 3.5f, 1.f / 9600);
-  EXPECT_TRUE(r.finite);
-  EXPECT_LE(r.gap, r.gap0 / 3.f);
-  EXPECT_LT(r.pinEnd, 0.01);
-  EXPECT_LT(r.pin, 0.25);
-  EXPECT_LT(r.links, 0.01);
+  expectStitchClosed(pullStitch(SolverType::PbMpm, true, 3.5f, 1.f / 9600));
 }
 
 // (d) A needle (ArcDesc: a half circle of 12 mm) on a free dynamic Bullet body (20 g),
