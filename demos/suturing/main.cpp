@@ -3,20 +3,20 @@
 // hand holding a needle holder, coupled as an ArcDesc) turns about its axis: in through
 // the top of block 1, under the gap, out through the top of block 2, on until its tail
 // (and the thread pinned to it) has come through; then it is pulled up and back over the
-// wound. The thread (a Featherstone chain coupled as LineSegmentsDesc, both ways, with the
-// added mass of the tissue it holds) starts at a fixed knot over the wound, so pulling
-// tightens it through both bites and draws the wound together. Writes PNGs (cutaway: the
-// front half of the tissue is not drawn, so the needle and thread inside show),
-// suturing.csv (per frame: time, needle force, gap across the wound, thread tension at the
-// needle's eye, wall time) and summary.txt.
+// wound at 1 cm/s until the thread carries 1 N at the needle's eye, and held there. The
+// thread (a Featherstone chain coupled as LineSegmentsDesc, both ways, with the added mass
+// of the tissue it holds) starts at a fixed knot over the wound, so pulling tightens it
+// through both bites and draws the wound together. Writes PNGs (cutaway: the front half of
+// the tissue is not drawn, so the needle and thread inside show), suturing.csv (per frame:
+// time, needle force, gap across the wound, thread tension at the needle's eye, wall time)
+// and summary.txt.
 //
-// Status (dx 2.5 mm, 8 s, 160 frames, 7 min on 2 shared cores; MLS-MPM): the tip breaks
-// into block 1 at 1.05 s, the needle goes through both bites (peak force 0.134 N) and
-// draws the thread after it; pulled up over the wound the thread, held by the tissue
-// (ThreadCoupling::addedMass) and its eye pinned within 0.5 um, builds 0.154 N of tension
-// and draws the gap from 7.25 to 5.86 mm. Not to a third: at that tension the thread cuts
-// through the tissue rather than drawing it (README Limits; tests/test_suturing_bullet.cpp,
-// PullingTheStitch). --one-way and --no-added-mass show the couplings without the hold.
+// Status (dx 2.5 mm, 12 s, 240 frames, 517 s on 2 cores; MLS-MPM): the tip breaks into
+// block 1 at 1.05 s, the needle goes through both bites (peak force 0.137 N) and draws the
+// thread after it; pulled up over the wound the thread, held by the tissue
+// (ThreadCoupling::addedMass) and its eye pinned within 13 um, reaches 1 N at 9.85 s and
+// draws the gap from 7.25 to 2.23 mm, a third being 2.42 (README, Suturing). --one-way
+// and --no-added-mass show the couplings without the hold.
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
@@ -49,46 +49,49 @@ constexpr float kBlockW = 0.03f, kHeight = 0.02f, kDepth = 0.03f, kGap = 0.006f;
 // arc enters block 1 10.4 mm left of the gap's middle, passes 6 mm under the tops and
 // leaves block 2 as far right.
 constexpr float kNeedleR = 0.012f, kAbove = 0.006f;
-// The thread: 7.5 cm in 5 mm segments (two cells: shorter or lighter segments are not
-// stable in the coupling, see coupler.h), from a knot over the wound.
+// The thread: 7.5 cm (in 30 segments of one cell, --thread-segments), from a knot over
+// the wound.
 constexpr float kThreadLength = 0.075f;
 
-/// The needle's script over normalised time u in [0, 1] of the run: the arc's centre and
-/// its turn about z (the tail's angle from +x).
+/// The needle's script: it waits, then turns about its centre through both bites until the
+/// tail is out (0.32 s to 5 s); then it is pulled up and back
+/// over the wound at `pullSpeed`, as a hand draws a stitch tight, until the thread carries
+/// `holdTension` at the needle's eye; from then on the needle is held where it is.
 struct Script {
-  float T;                // the run's length [s]
-  // phase ends as fractions of the run: wait, turn through both bites and on until the
-  // tail is out, pull up and away, hold
-  float u0 = 0.04f, u1 = 0.62f, u2 = 0.95f;
-  float turnEnd = 365.f * kPi / 180.f;  // the thread's eye (24 degrees behind the tail) out
+  float turnStart = 0.32f, turnStop = 5.f;  // [s]
+  float turnAngle = 365.f * kPi / 180.f;  // the thread's eye (24 degrees behind the tail) out
   mpm::Vec3f centre0{0.f, kHeight + kAbove, 0.f};
-  // where the needle goes after the turn: up, and back over the wound so the thread from
-  // bite 2 runs toward the middle (drawn away to +x it drew block 2's edge away)
-  mpm::Vec3f pull{-0.01f, 0.04f, 0.f};
+  // the pull's path: up, and back over the wound so the thread from bite 2 runs toward the
+  // middle (drawn away to +x it drew block 2's edge away)
+  mpm::Vec3f pull{-0.015f, 0.06f, 0.f};
+  float pullSpeed = 0.01f;  // [m/s]
+  float holdTension = 1.f;  // [N]
+  float pulled = 0.f;       // [m] along the pull's path so far
+  bool pulling = false;     // in this tick
+  bool held = false;        // the tension has reached holdTension
+
   static float ramp(float a) {
     a = std::clamp(a, 0.f, 1.f);
     return a * a * (3 - 2 * a);
   }
-  void at(float t, mpm::Vec3f& centre, float& turn) const {
-    const float u = t / T;
-    turn = turnEnd * ramp((u - u0) / (u1 - u0));
-    centre = centre0 + ramp((u - u1) / (u2 - u1)) * pull;
+  float turnAt(float t) const { return turnAngle * ramp((t - turnStart) / (turnStop - turnStart)); }
+  /// Moves the pull on over a tick ending at t, given the thread's tension at the eye.
+  void advance(float t, float dt, float tension) {
+    const float length = mpm::norm(pull);
+    held = held || (t > turnStop && tension >= holdTension);
+    pulling = t > turnStop && !held && pulled < length;
+    if (pulling) pulled = std::min(pulled + pullSpeed * dt, length);
   }
   btTransform pose(float t) const {
-    mpm::Vec3f c;
-    float turn;
-    at(t, c, turn);
-    return btTransform(btQuaternion(btVector3(0, 0, 1), turn), btVector3(c.x, c.y, c.z));
+    const mpm::Vec3f c = centre0 + (pulled / mpm::norm(pull)) * pull;
+    return btTransform(btQuaternion(btVector3(0, 0, 1), turnAt(t)), btVector3(c.x, c.y, c.z));
   }
-  /// Velocities by central difference.
+  /// Velocities: the turn's by central difference, the pull's while it moves.
   void velocity(float t, btVector3& v, btVector3& w) const {
     const float h = 1e-3f;
-    mpm::Vec3f c0, c1;
-    float a0, a1;
-    at(t - h, c0, a0);
-    at(t + h, c1, a1);
-    v = btVector3(c1.x - c0.x, c1.y - c0.y, c1.z - c0.z) / (2 * h);
-    w = btVector3(0, 0, (a1 - a0) / (2 * h));
+    const mpm::Vec3f d = (pulling ? pullSpeed / mpm::norm(pull) : 0.f) * pull;
+    v = btVector3(d.x, d.y, d.z);
+    w = btVector3(0, 0, (turnAt(t + h) - turnAt(t - h)) / (2 * h));
   }
 };
 
@@ -156,8 +159,8 @@ float gapWidth(const std::vector<mpm::Vec3f>& left, const std::vector<mpm::Vec3f
 int main(int argc, char** argv) {
   CLI::App app{"A needle and thread close a gap between two tissue blocks (Bullet + MPM curves)"};
   std::string out = "out/suturing", solverName = "mls";
-  int frames = 160, pngEvery = 8, threads = 0;
-  float seconds = 8.f, dx = 0.0025f, punctureForce = 0.03f, threadDensity = 5e-5f, eyeBehind = 0.005f;
+  int frames = 240, pngEvery = 8, threads = 0;
+  float seconds = 12.f, dx = 0.0025f, punctureForce = 0.03f, threadDensity = 5e-5f, eyeBehind = 0.005f;
   bool oneWay = false, noAddedMass = false;
   int threadSegments = 30;
   float maxForce = 5.f;
@@ -187,6 +190,11 @@ int main(int argc, char** argv) {
   app.add_option("--thread-segments", threadSegments, "links of the thread")->check(CLI::PositiveNumber);
   app.add_option("--tick-rate", tickRate, "Bullet's ticks per second")->check(CLI::PositiveNumber);
   app.add_option("--max-force", maxForce, "the needle driver's force limit [N]")->check(CLI::PositiveNumber);
+  float pullSpeed = 0.01f, holdTension = 1.f;
+  app.add_option("--pull-speed", pullSpeed, "the needle's speed when pulled after the bites [m/s]")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--hold-tension", holdTension, "the pull stops once the thread carries this at the eye [N]")
+      ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
   const float kTick = 1.f / tickRate;
   const std::map<std::string, mpm::SolverType> solvers = {{"mls", mpm::SolverType::MlsMpm},
@@ -215,7 +223,7 @@ int main(int argc, char** argv) {
     world.addRigidBody(&ground, 1, 4);  // holds the tissue (coupled) and the thread (Bullet)
 
     mpm::SceneSettings settings;
-    settings.domain = {{-0.075f, -0.012f, -0.045f}, {0.06f, 0.08f, 0.03f}};
+    settings.domain = {{-0.075f, -0.012f, -0.045f}, {0.06f, 0.1f, 0.03f}};
     settings.dx = dx;
     settings.solver = solvers.at(solverName);
     settings.backend = mpm::Backend::Cpu;
@@ -239,7 +247,8 @@ int main(int argc, char** argv) {
     // a force F is F dt tau / m (3 N: 0.16 mm), and the needle is kinematic in the scene,
     // so its coupling is explicit and wants a body heavier than the tissue it drags
     Script script;
-    script.T = seconds;
+    script.pullSpeed = pullSpeed;
+    script.holdTension = holdTension;
     const float mass = 0.1f;
     btSphereShape needleShape(0.001f);
     btRigidBody::btRigidBodyConstructionInfo info(mass, nullptr, &needleShape, btVector3(1e-4f, 1e-4f, 1e-4f));
@@ -309,8 +318,10 @@ int main(int argc, char** argv) {
 
     // per tick: the driver before the coupling; after it, the frame's sums
     btVector3 needleImpulse(0, 0, 0), eyeImpulse(0, 0, 0);
+    float eyeTension = 0.f;  // [N] low-passed over 20 ms, as a hand feels it
     coupler.setPreTickCallback([&](float dt) {
       const float t = (float)scene.time() + dt;  // where the needle should be after this tick
+      script.advance(t, dt, eyeTension);
       btVector3 v, w;
       script.velocity(t, v, w);
       driver.setTarget(script.pose(t), v, w);
@@ -319,7 +330,9 @@ int main(int argc, char** argv) {
     coupler.setUserTickCallback([&](float dt) {
       const mpm::ShapeImpulse J = scene.curveImpulse(needleCurve);
       needleImpulse += btVector3(J.linear.x, J.linear.y, J.linear.z);
-      eyeImpulse += mpm::bullet::pinForce(eyePin, dt) * dt;
+      const btVector3 f = mpm::bullet::pinForce(eyePin, dt);
+      eyeTension += (f.length() - eyeTension) * std::min(dt / 0.02f, 1.f);
+      eyeImpulse += f * dt;
     });
 
     std::printf("suturing (%s, dx %.1f mm): %zu tissue particles, %.1f s in %d frames, Bullet tick %.3f ms, MPM substep %.3f ms\n",
