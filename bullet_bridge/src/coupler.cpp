@@ -82,10 +82,11 @@ struct Coupler::NeedleLink {
 };
 
 struct Coupler::ThreadLink {
-  btMultiBody* thread;
+  btMultiBody* thread = nullptr;
   CurveId curve;
-  bool dynamic;
+  bool dynamic = false;
   std::vector<btVector3> force, torque;  ///< per segment: applied over the current tick
+  std::vector<btVector3> shareLinear, shareAngular;  ///< per segment: its impulse per tick of the interval
   bool addedMass = false;
   std::vector<btScalar> mass;            ///< per segment: the link's own (added mass)
   std::vector<btVector3> inertia;        ///< per segment: the link's own principal moments
@@ -232,13 +233,12 @@ void Coupler::resetInterval() {
   for (Link& l : links_) l.shareLinear = l.shareAngular = btVector3(0, 0, 0);
   for (SlicerLink& l : slicers_) l.share = {};
   for (NeedleLink& l : needles_) l.share = {};
+  for (ThreadLink& t : threads_)
+    for (size_t s = 0; s < t.shareLinear.size(); ++s) t.shareLinear[s] = t.shareAngular[s] = btVector3(0, 0, 0);
 }
 
 void Coupler::setTissueInterval(int ticks) {
   if (ticks < 1) throw InvalidArgument("Coupler::setTissueInterval ticks", std::to_string(ticks), "must be >= 1");
-  if (ticks > 1 && !threads_.empty())
-    throw InvalidArgument("Coupler::setTissueInterval ticks", std::to_string(ticks),
-                          "must be 1 with threads coupled (their segment forces and added mass are per tick)");
   if (intervalTick_ != 0)
     throw InvalidArgument("Coupler::setTissueInterval ticks", std::to_string(ticks),
                           "cannot change while an interval is open (the scene is " +
@@ -339,9 +339,6 @@ std::vector<Vec3f> toVecs(const std::vector<btVector3>& v) {
 
 CurveId Coupler::addThread(btMultiBody* thread, const ThreadCoupling& options) {
   if (!thread) throw InvalidArgument("Coupler::addThread thread", "null", "needs a btMultiBody");
-  if (tissueInterval_ > 1)
-    throw InvalidArgument("Coupler::addThread thread", "with a tissue interval of " + std::to_string(tissueInterval_),
-                          "threads need the tissue to advance every tick (setTissueInterval(1))");
   for (const ThreadLink& t : threads_)
     if (t.thread == thread) throw InvalidArgument("Coupler::addThread thread", "already coupled", "one curve per thread");
   LineSegmentsDesc d;
@@ -372,9 +369,14 @@ CurveId Coupler::addThread(btMultiBody* thread, const ThreadCoupling& options) {
   } else if (options.addedMass) {
     throw InvalidArgument("ThreadCoupling.addedMass", "true", "needs dynamic = true (the tissue's push on the links)");
   }
-  ThreadLink link{thread, scene_.addCurve(d), options.dynamic, {}, {}};  // validates the thread
+  ThreadLink link;
+  link.thread = thread;
+  link.curve = scene_.addCurve(d);  // validates the thread
+  link.dynamic = options.dynamic;
   link.force.assign((size_t)n, btVector3(0, 0, 0));
   link.torque.assign((size_t)n, btVector3(0, 0, 0));
+  link.shareLinear.assign((size_t)n, btVector3(0, 0, 0));
+  link.shareAngular.assign((size_t)n, btVector3(0, 0, 0));
   if (options.addedMass) {
     link.addedMass = true;
     for (int s = 0; s < n; ++s) {
@@ -671,6 +673,16 @@ void Coupler::applyShares(float dt) {
   // a dynamic scalpel or needle takes its share, given about its tool frame's origin
   for (const SlicerLink& l : slicers_) l.frame.receive(l.share);
   for (const NeedleLink& l : needles_) l.frame.receive(l.share);
+  // a thread's segments take theirs as forces over this tick on their links
+  for (ThreadLink& t : threads_) {
+    if (!t.dynamic) continue;
+    for (size_t s = 0; s < t.force.size(); ++s) {
+      t.force[s] = t.shareLinear[s] / dt;
+      t.torque[s] = t.shareAngular[s] / dt;
+      addLinkForce(t.thread, (int)s - 1, t.force[s], t.torque[s]);
+    }
+    t.thread->wakeUp();
+  }
 }
 
 void Coupler::advanceTissue(float dt) {
@@ -711,8 +723,9 @@ void Coupler::advanceTissue(float dt) {
   };
   for (SlicerLink& l : slicers_) l.share = share(scene_.slicerImpulse(l.slicer));
   for (NeedleLink& l : needles_) l.share = share(scene_.curveImpulse(l.curve));
-  // each thread segment (threads only with an interval of one tick) takes its impulse (about the segment's midpoint) as a force over
-  // this tick on its link, moved to the link's centre of mass
+  // each thread segment's impulse (about the segment's midpoint), moved to its link's
+  // centre of mass, a share per tick
+  const btScalar perTick = (btScalar)n;
   for (ThreadLink& t : threads_) {
     if (!t.dynamic) continue;
     const std::vector<ShapeImpulse> J = scene_.segmentImpulses(t.curve);
@@ -724,6 +737,7 @@ void Coupler::advanceTissue(float dt) {
       // the segment's velocity in this advance, and the nodes it held: J = F dt - M_c dv_n,
       // where dv_n is the segment's change of velocity across itself since the advance
       // before (the held nodes followed it); Bullet's added mass M_c carries that part
+      // through the interval
       const std::vector<float> Mc = scene_.segmentContactMasses(t.curve);
       for (size_t s = 0; s < J.size(); ++s) {
         const btVector3 along = (p[s + 1] - p[s]).normalized();
@@ -733,22 +747,18 @@ void Coupler::advanceTissue(float dt) {
         setSegmentMass(t.thread, (int)s, t.mass[s] * scale, t.inertia[s] * scale);
         const btVector3 lever = 0.5f * (p[s] + p[s + 1]) - threadSegmentTransform(t.thread, (int)s).getOrigin();
         // no torque of the tissue's own: a segment's turn is its chain's (settleBodyVelocity)
-        t.force[s] = push / dt;
-        t.torque[s] = lever.cross(push) / dt;
-        addLinkForce(t.thread, (int)s - 1, t.force[s], t.torque[s]);
+        t.shareLinear[s] = push / perTick;
+        t.shareAngular[s] = lever.cross(push) / perTick;
       }
       t.velocity = t.advanced;
-      t.thread->wakeUp();
       continue;
     }
     for (size_t s = 0; s < J.size(); ++s) {
       const btVector3 mid = 0.5f * (p[s] + p[s + 1]);
       const btVector3 lever = mid - threadSegmentTransform(t.thread, (int)s).getOrigin();
-      t.force[s] = toBt(J[s].linear) / dt;
-      t.torque[s] = (toBt(J[s].angular) + lever.cross(toBt(J[s].linear))) / dt;
-      addLinkForce(t.thread, (int)s - 1, t.force[s], t.torque[s]);
+      t.shareLinear[s] = toBt(J[s].linear) / perTick;
+      t.shareAngular[s] = (toBt(J[s].angular) + lever.cross(toBt(J[s].linear))) / perTick;
     }
-    t.thread->wakeUp();
   }
 }
 

@@ -235,6 +235,40 @@ void layThreadAlong(btMultiBody* mb, const std::vector<btVector3>& points) {
   mb->updateCollisionObjectWorldTransforms(scratchRot, scratchPos);
 }
 
+std::vector<btVector3> threadPointsAlong(const std::vector<btVector3>& corners, float segmentLength, int segments) {
+  if (!(segmentLength > 0.f) || !std::isfinite(segmentLength))
+    throw InvalidArgument("threadPointsAlong segmentLength", std::to_string(segmentLength), "must be finite and > 0");
+  if (segments < 1) throw InvalidArgument("threadPointsAlong segments", std::to_string(segments), "must be >= 1");
+  if (corners.empty()) throw InvalidArgument("threadPointsAlong corners", "none", "needs a polyline");
+  for (size_t k = 0; k < corners.size(); ++k)
+    if (!finite(corners[k]))
+      throw InvalidArgument("threadPointsAlong corners[" + std::to_string(k) + "]", text(corners[k]), "must be finite");
+  const btScalar L = segmentLength;
+  std::vector<btVector3> p{corners[0]};
+  size_t j = 0;
+  btScalar t = 0;
+  while ((int)p.size() <= segments) {
+    if (j + 1 >= corners.size())
+      throw InvalidArgument("threadPointsAlong corners", std::to_string(corners.size()) + " corners",
+                            "the polyline is shorter than " + std::to_string(segments) + " segments of " +
+                                std::to_string(segmentLength) + " m");
+    // where the corner's edge j first leaves the sphere of radius L about the last point,
+    // past where the walk already is on it
+    const btVector3 d = corners[j + 1] - corners[j], f = corners[j] - p.back();
+    const btScalar a = d.dot(d), b = 2 * f.dot(d), c = f.dot(f) - L * L;
+    const btScalar disc = b * b - 4 * a * c;
+    const btScalar root = a > 0 && disc >= 0 ? (-b + std::sqrt(disc)) / (2 * a) : -1;
+    if (root >= t && root <= 1) {
+      t = root;
+      p.push_back(corners[j] + d * root);
+    } else {
+      ++j;
+      t = 0;
+    }
+  }
+  return p;
+}
+
 btMultiBodyPoint2Point* pinThreadPoint(btMultiBodyDynamicsWorld* world, btMultiBody* mb, int point, btRigidBody* body,
                                       const btVector3& pivotInBody) {
   if (!world) throw InvalidArgument("pinThreadPoint world", "null", "needs a btMultiBodyDynamicsWorld");

@@ -118,31 +118,6 @@ std::vector<mpm::Vec3f> polylinePoints(const std::vector<btVector3>& p, float sp
   return out;
 }
 
-/// `n` + 1 points along the polyline `corners` from its first, each `L` from the one
-/// before (straight, so each segment of a thread laid along them has its length): from
-/// each point the next is where the polyline first leaves the sphere of radius L about it.
-/// The polyline must be longer than n L.
-std::vector<btVector3> walkPath(const std::vector<btVector3>& corners, float L, int n) {
-  std::vector<btVector3> p{corners[0]};
-  size_t j = 0;
-  float t = 0.f;
-  while ((int)p.size() <= n) {
-    if (j + 1 >= corners.size()) throw mpm::Error("walkPath: the path is shorter than the thread");
-    const btVector3 d = corners[j + 1] - corners[j], f = corners[j] - p.back();
-    const float a = d.dot(d), b = 2 * f.dot(d), c = f.dot(f) - L * L;
-    const float disc = b * b - 4 * a * c;
-    const float root = disc >= 0.f ? (-b + std::sqrt(disc)) / (2 * a) : -1.f;
-    if (root >= t && root <= 1.f) {
-      t = root;
-      p.push_back(corners[j] + d * root);
-    } else {
-      ++j;
-      t = 0.f;
-    }
-  }
-  return p;
-}
-
 /// The wound's gap: block 2's leftmost minus block 1's rightmost particle in the band
 /// near the top (the top 4 mm) around the stitch's plane (|z| < 6 mm) [m].
 float gapWidth(const std::vector<mpm::Vec3f>& left, const std::vector<mpm::Vec3f>& right, float top) {
@@ -190,6 +165,13 @@ int main(int argc, char** argv) {
   app.add_option("--thread-segments", threadSegments, "links of the thread")->check(CLI::PositiveNumber);
   app.add_option("--tick-rate", tickRate, "Bullet's ticks per second")->check(CLI::PositiveNumber);
   app.add_option("--max-force", maxForce, "the needle driver's force limit [N]")->check(CLI::PositiveNumber);
+  // PB-MPM's stiffness is its iterations per unit time: advanced at every 1/9600 s tick the
+  // blocks are nearly rigid; every 6 ticks it carries MLS-MPM's tension at the same pull
+  // (tests/test_suturing_bullet.cpp, PullingTheStitch)
+  int tissueInterval = 0;
+  app.add_option("--tissue-interval", tissueInterval,
+                 "Bullet ticks per tissue advance (Coupler::setTissueInterval; 0: 1 for mls, 6 for pb)")
+      ->check(CLI::NonNegativeNumber);
   float pullSpeed = 0.01f, holdTension = 1.f;
   app.add_option("--pull-speed", pullSpeed, "the needle's speed when pulled after the bites [m/s]")
       ->check(CLI::PositiveNumber);
@@ -295,7 +277,7 @@ int main(int argc, char** argv) {
     const btVector3 eyeInNeedle(kNeedleR * std::cos(eye), kNeedleR * std::sin(eye), 0);
     const btVector3 eyeAt = script.pose(0.f) * eyeInNeedle;
     const float up = kHeight + 0.014f, back = -0.024f;
-    std::vector<btVector3> path = walkPath({eyeAt, btVector3(eyeAt.x(), up, 0), btVector3(eyeAt.x(), up, back),
+    std::vector<btVector3> path = mpm::bullet::threadPointsAlong({eyeAt, btVector3(eyeAt.x(), up, 0), btVector3(eyeAt.x(), up, back),
                                             btVector3(-0.003f, up, back), btVector3(-0.003f, up, -0.006f),
                                             btVector3(-0.003f, kHeight + 0.004f, -0.006f)},
                                            kThreadLength / threadSegments, threadSegments);
@@ -315,12 +297,14 @@ int main(int argc, char** argv) {
     tc.dynamic = !oneWay;
     tc.addedMass = !oneWay && !noAddedMass;
     coupler.addThread(thread, tc);
+    coupler.setTissueInterval(tissueInterval > 0 ? tissueInterval : settings.solver == mpm::SolverType::PbMpm ? 6 : 1);
 
     // per tick: the driver before the coupling; after it, the frame's sums
     btVector3 needleImpulse(0, 0, 0), eyeImpulse(0, 0, 0);
     float eyeTension = 0.f;  // [N] low-passed over 20 ms, as a hand feels it
+    double bulletTime = 0;  // Bullet's clock: the scene's runs ahead within a tissue interval
     coupler.setPreTickCallback([&](float dt) {
-      const float t = (float)scene.time() + dt;  // where the needle should be after this tick
+      const float t = (float)bulletTime + dt;  // where the needle should be after this tick
       script.advance(t, dt, eyeTension);
       btVector3 v, w;
       script.velocity(t, v, w);
@@ -328,8 +312,11 @@ int main(int argc, char** argv) {
       driver.tick(dt);
     });
     coupler.setUserTickCallback([&](float dt) {
-      const mpm::ShapeImpulse J = scene.curveImpulse(needleCurve);
-      needleImpulse += btVector3(J.linear.x, J.linear.y, J.linear.z);
+      bulletTime += dt;
+      if (coupler.tissueAdvanced()) {  // the advance's impulse, over the interval's ticks
+        const mpm::ShapeImpulse J = scene.curveImpulse(needleCurve);
+        needleImpulse += btVector3(J.linear.x, J.linear.y, J.linear.z);
+      }
       const btVector3 f = mpm::bullet::pinForce(eyePin, dt);
       eyeTension += (f.length() - eyeTension) * std::min(dt / 0.02f, 1.f);
       eyeImpulse += f * dt;

@@ -213,8 +213,10 @@ class Coupler {
   /// tick), over the whole interval (see the top of this file). For fixed ticks
   /// (stepSimulation with maxSubSteps > 0): the advance covers `ticks` times the tick it
   /// starts in. From the next tick that starts an interval; while one is open (the scene
-  /// ahead of Bullet) the call throws InvalidArgument. Not with threads (addThread): their
-  /// segments' forces and added mass are per tick.
+  /// ahead of Bullet) the call throws InvalidArgument. A thread's segments take their
+  /// shares as forces over each tick, and with the added mass their links carry the held
+  /// nodes' mass through the interval: so a thread can tick at Bullet's small step while
+  /// PB-MPM takes its own (PullingTheStitch.ClosesTheGapPbMpm).
   void setTissueInterval(int ticks);
   int tissueInterval() const { return tissueInterval_; }
   /// Whether the tissue advanced in the last tick (at every tick with an interval of 1):

@@ -110,6 +110,12 @@ std::vector<btVector3> threadPoints(const btMultiBody* thread);
 void layThreadAlong(btMultiBody* thread, const std::vector<btVector3>& points);
 /// Velocities of the points above: point k from segment k's motion (v + w x r), the last
 /// point from the last segment's.
+/// `segments` + 1 points along the polyline `corners` from its first, each `segmentLength`
+/// from the one before (straight-line distance, so a thread laid along them with
+/// layThreadAlong has its segments' length): from each point the next is where the
+/// polyline first leaves the sphere of that radius about it. Throws mpm::InvalidArgument
+/// when the polyline is too short for the thread or a corner is not finite.
+std::vector<btVector3> threadPointsAlong(const std::vector<btVector3>& corners, float segmentLength, int segments);
 std::vector<btVector3> threadPointVelocities(const btMultiBody* thread);
 /// World transform of segment i (0: the base, i: link i - 1), centre of mass frame.
 btTransform threadSegmentTransform(const btMultiBody* thread, int segment);
