@@ -187,8 +187,14 @@ constexpr char kBallOnSlab[] = R"({
   "output": {"frames": 4, "frameTime": 0.02}
 })";
 
-TEST(SceneFilePhysics, BallOnSlabMatchesTheSameSetupInCpp) {
-  auto loaded = LoadedScene::fromString(kBallOnSlab);
+// With "world": {"tissueInterval": 2} against Coupler::setTissueInterval(2), bit for bit
+// as well: the scene file's clock and the frame's impulse sums follow Bullet's ticks.
+class SceneFileInterval : public ::testing::TestWithParam<int> {};
+
+TEST_P(SceneFileInterval, BallOnSlabMatchesTheSameSetupInCpp) {
+  const int interval = GetParam();
+  auto loaded = LoadedScene::fromString(kBallOnSlab, ".", R"({"world": {"tissueInterval": )" + std::to_string(interval) + "}}");
+  EXPECT_EQ(loaded->coupler().tissueInterval(), interval);
   for (int f = 0; f < 4; ++f) loaded->advanceFrame();
 
   // the same by hand
@@ -233,6 +239,7 @@ TEST(SceneFilePhysics, BallOnSlabMatchesTheSameSetupInCpp) {
   options.contact.friction = 0.5f;
   options.contact.band = 0.001f;
   coupler.addRigidBody(&ball, options);
+  coupler.setTissueInterval(interval);
   for (int f = 0; f < 4; ++f) {
     world.stepSimulation(4 * 0.005f, 5, 0.005f);
     coupler.rethrowError();
@@ -253,8 +260,18 @@ TEST(SceneFilePhysics, BallOnSlabMatchesTheSameSetupInCpp) {
     EXPECT_NEAR(sa.momentum[k], sb.momentum[k], 1e-6 * sb.mass);
   }
   EXPECT_NE(sa.momentum[1], 0.0) << "the ball pushed the slab";
+  EXPECT_NEAR(loaded->scene().time(), 0.08, 1e-6) << "the frames end where intervals do";
   world.removeRigidBody(&ball);
   world.removeRigidBody(&ground);
+}
+
+INSTANTIATE_TEST_SUITE_P(TicksPerAdvance, SceneFileInterval, ::testing::Values(1, 2),
+                         [](const auto& info) { return "Every" + std::to_string(info.param) + "Ticks"; });
+
+TEST(SceneFileErrors, TissueIntervalMustDivideTheFrame) {
+  EXPECT_EQ(loadError(R"({"world": {"tissueInterval": 0}})"), "world.tissueInterval = 0: must lie in [1, 1000] ticks");
+  EXPECT_EQ(loadError(R"({"world": {"tick": 0.005, "tissueInterval": 3}, "output": {"frameTime": 0.02}})"),
+            "world.tissueInterval = 3: must divide the frame's 4 Bullet ticks (output.frameTime / world.tick)");
 }
 
 TEST(SceneFilePhysics, FreeFallingTissueBoxFollowsGravity) {
@@ -310,6 +327,27 @@ TEST(SceneFileMotion, KinematicKeyframesMoveTheBodyAlongThePath) {
   loaded->advanceFrame();
   loaded->advanceFrame();
   EXPECT_NEAR(loaded->body("tool")->getCenterOfMassPosition().x(), 0.1f, 1e-5f) << "held after the last keyframe";
+}
+
+// A driven body follows its script on Bullet's clock: with the tissue advanced once every
+// 4 ticks (the scene's clock ahead of Bullet's inside each interval) it moves exactly as
+// with every tick. Reading the scene's clock, it ran up to 3 ticks ahead of its script.
+TEST(SceneFileMotion, ScriptsRunOnBulletsClockAcrossTissueIntervals) {
+  auto run = [](int interval) {
+    auto loaded = LoadedScene::fromString(std::string("{") + kDomain + R"(,
+      "world": {"tick": 0.01, "gravity": [0, 0, 0], "tissueInterval": )" + std::to_string(interval) + R"(},
+      "bodies": [{"name": "tool", "shape": {"type": "sphere", "radius": 0.01}, "mass": 0.1, "coupled": false,
+                  "motion": {"mode": "driver", "keyframes": [
+                    {"time": 0, "position": [0, 0.2, 0]}, {"time": 0.2, "position": [0.1, 0.2, 0]}]}}],
+      "output": {"frameTime": 0.04}})");
+    loaded->advanceFrame();
+    loaded->advanceFrame();
+    return loaded->body("tool")->getCenterOfMassPosition();
+  };
+  const btVector3 every = run(1), fourth = run(4);
+  EXPECT_GT(every.x(), 0.01f) << "the driver moved the body";
+  EXPECT_EQ(fourth.x(), every.x());
+  EXPECT_EQ(fourth.y(), every.y());
 }
 
 TEST(SceneFileCheckpoint, CouplerCheckpointResumesTheRun) {

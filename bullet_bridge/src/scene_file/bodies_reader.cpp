@@ -136,7 +136,7 @@ void readBody(Node n, LoadedScene::Impl& s) {
   if (mode == "kinematic") {
     auto k = std::make_unique<KinematicScript>();
     k->keys = &*b->script;
-    k->scene = s.scene.get();
+    k->clock = &s.bulletTime;
     k->tick = s.tick;
     state = k.get();
     b->motionState = std::move(k);

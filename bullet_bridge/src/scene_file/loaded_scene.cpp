@@ -52,6 +52,13 @@ std::unique_ptr<LoadedScene::Impl> build(const Json& root, const std::string& ba
     readOutput(output ? &*output : nullptr, *s);
   }
   n.finish();
+  // a frame ends where an interval does: the scene and Bullet agree on the time there, and a
+  // checkpoint between frames is never inside an interval
+  const int ticks = std::max(1, (int)std::lround(s->output.frameTime / s->tick));
+  if (ticks % s->tissueInterval != 0)
+    fail("world.tissueInterval", s->tissueInterval,
+         "must divide the frame's " + std::to_string(ticks) + " Bullet ticks (output.frameTime / world.tick)");
+  s->coupler->setTissueInterval(s->tissueInterval);
   s->hookTicks();
   return s;
 }
@@ -79,6 +86,8 @@ void readWorld(Node* n, LoadedScene::Impl& s) {
   int iterations = s.world->getSolverInfo().m_numIterations;
   if (n->read("solverIterations", iterations) && iterations < 1) fail(n->at("solverIterations"), iterations, "must be >= 1");
   s.world->getSolverInfo().m_numIterations = iterations;
+  if (n->read("tissueInterval", s.tissueInterval) && !(s.tissueInterval >= 1 && s.tissueInterval <= 1000))
+    fail(n->at("tissueInterval"), s.tissueInterval, "must lie in [1, 1000] ticks");
   n->finish();
 }
 
@@ -118,14 +127,16 @@ void LoadedScene::Impl::hookTicks() {
   coupler->setPreTickCallback([this](float dt) {
     for (auto& b : bodies) {
       if (!b->driver) continue;
-      const double t = scene->time() + dt;  // where the body should be after this tick
+      const double t = bulletTime + dt;  // where the body should be after this tick
       btVector3 v, w;
       b->script->velocity(t, v, w);
       b->driver->setTarget(b->script->pose(t), v, w);
       b->driver->tick(dt);
     }
   });
-  coupler->setUserTickCallback([this](float) {
+  coupler->setUserTickCallback([this](float dt) {
+    bulletTime += dt;
+    if (!coupler->tissueAdvanced()) return;  // an advance's impulses cover its whole interval
     auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
     for (auto& b : bodies)
       if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
@@ -184,6 +195,9 @@ void LoadedScene::advanceFrame() {
 }
 
 void LoadedScene::saveCheckpoint(const std::string& path) const { impl_->coupler->save(path); }
-void LoadedScene::loadCheckpoint(const std::string& path) { impl_->coupler->load(path); }
+void LoadedScene::loadCheckpoint(const std::string& path) {
+  impl_->coupler->load(path);
+  impl_->bulletTime = impl_->scene->time();  // saved between intervals: the clocks agreed
+}
 
 }  // namespace mpm::bullet

@@ -89,6 +89,8 @@ struct LoadedScene::Impl {
   std::unique_ptr<btMultiBodyConstraintSolver> solver;
   std::unique_ptr<btMultiBodyDynamicsWorld> world;
   float tick = 1.f / 240;
+  int tissueInterval = 1;  ///< Bullet ticks per tissue advance (Coupler::setTissueInterval)
+  double bulletTime = 0;   ///< Bullet's clock: the scene's runs ahead inside a tissue interval
   // the tissue and the coupling
   std::unique_ptr<Scene> scene;
   std::unique_ptr<Coupler> coupler;

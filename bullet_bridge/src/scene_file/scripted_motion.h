@@ -36,9 +36,9 @@ struct Keyframes {
 /// for the pose a tick ahead and takes the velocity from the difference.
 struct KinematicScript : btMotionState {
   const Keyframes* keys = nullptr;
-  const Scene* scene = nullptr;
+  const double* clock = nullptr;  ///< Bullet's time (LoadedScene::Impl::bulletTime)
   float tick = 1.f / 240;
-  void getWorldTransform(btTransform& t) const override { t = keys->pose(scene->time() + tick); }
+  void getWorldTransform(btTransform& t) const override { t = keys->pose(*clock + tick); }
   void setWorldTransform(const btTransform&) override {}
 };
 
