@@ -48,6 +48,8 @@ What Coupler.step() does, in this order, and why:
     so J arrives before this step's integration, as the C++ coupler's impulse does before
     Bullet's tick. Applied after pybullet had already moved the body with this step's
     gravity, a resting body would creep into the tissue by g dt^2 every step.
+With tissue_interval n > 1, steps 1-2 happen at the first step of each n, over n steps of
+time, and step 3 applies 1/n of that advance's momentum at every step of the n.
 
 Not handled: bodies loaded with useMaximalCoordinates (pybullet cannot report their
 collision shapes; refused), heightfields, concave triangle meshes (taken as their hull),
@@ -171,6 +173,31 @@ class Coupler:
         self._gravity = self._world_gravity()
         self._gravity_checked = False
         self.last_dt = 0.0
+        self._interval = 1
+        self._interval_step = 0  # steps of the open interval done (0: the next step advances)
+        self._shares = []        # (body, link, tool or None, force, torque) of the open interval
+        self.tissue_advanced = False
+
+    @property
+    def tissue_interval(self):
+        """pybullet steps per tissue advance (1, the default: every step). With n the tissue
+        advances once every n steps, over all n, from the links' states at the first; the
+        momentum it gave each link arrives as a force over each of the n steps (1/n of it
+        per step), so the link has all of it when the interval closes. PB-MPM takes its own
+        step this way (its stiffness is its iterations per unit time). As
+        Coupler::setTissueInterval in C++: set it between intervals. After a step that
+        advanced (tissue_advanced), the scene's impulses are that advance's, over
+        n * last_dt."""
+        return self._interval
+
+    @tissue_interval.setter
+    def tissue_interval(self, n):
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise _invalid("Coupler.tissue_interval", n, "must be an int >= 1")
+        if self._interval_step != 0:
+            raise _invalid("Coupler.tissue_interval", n, f"cannot change while an interval is open (the scene is "
+                           f"{self._interval - self._interval_step} step(s) ahead of pybullet)")
+        self._interval = n
 
     # -- reading pybullet -------------------------------------------------------------
     def _world_gravity(self):
@@ -305,6 +332,8 @@ class Coupler:
             else:
                 keep.append(l)
         self._links = keep
+        # what the open interval still owed them goes with them
+        self._shares = [x for x in self._shares if not (x[0] == body_id and (link_index is None or x[1] == link_index))]
 
     def shape_of(self, body_id, link_index=-1):
         """ShapeId of a coupled link, e.g. for scene.shape_impulse."""
@@ -362,6 +391,24 @@ class Coupler:
         for body, links in wanted.items():
             links = sorted(links)
             now.update(((body, l), s) for l, s in zip(links, self._states(body, links)))
+        self.tissue_advanced = self._interval_step == 0
+        if self.tissue_advanced:
+            self._advance(dt, now, gravity)
+        self.last_dt = dt
+        # 3. each link's share: a force over this step at its centre of mass (where it still
+        # is: pybullet has not moved it since it was read), a blade's or needle's at its
+        # frame's origin
+        for body, link, tool, force, torque in self._shares:
+            pos = (self._tool_state(tool, now[body, link]) if tool else now[body, link])[0]
+            _p.applyExternalForce(body, link, force, pos, _p.WORLD_FRAME, physicsClientId=self.client)
+            _p.applyExternalTorque(body, link, torque, _p.WORLD_FRAME, physicsClientId=self.client)
+        self._interval_step = (self._interval_step + 1) % self._interval
+        # 4. pybullet integrates with the tissue's push in
+        _p.stepSimulation(physicsClientId=self.client)
+
+    def _advance(self, dt, now, gravity):
+        """Steps 1-2, and the shares of step 3 for the interval's steps."""
+        n = self._interval
         # 1. shapes, blades and needles take the links' poses and velocities
         states = [(l, now[l.body, l.link]) for l in self._links]
         tools = [(t, self._tool_state(t, now[t.body, t.link])) for t in self._tools]
@@ -372,7 +419,7 @@ class Coupler:
             if not np.allclose(self.scene.gravity, gravity, rtol=1e-5, atol=1e-6):
                 warnings.warn(f"the scene's gravity {tuple(float(g) for g in self.scene.gravity)} is not pybullet's "
                               f"{gravity}: the tissue falls another way than the bodies (give the scene's settings "
-                              f"\"gravity\": {list(gravity)})", stacklevel=2)
+                              f"\"gravity\": {list(gravity)})", stacklevel=3)
         regravitate = gravity != self._gravity  # the world's gravity changed: dynamic shapes take it
         self._gravity = gravity
         for l, s in states:
@@ -381,31 +428,25 @@ class Coupler:
                 l.shape = self._add_shape(l, s)
             else:
                 self.scene.set_shape_state(l.shape, *s)
-        # 2. the tissue advances over the step
-        self.scene.step(dt)
-        self.last_dt = dt
-        # 3. the grid's momentum goes to each dynamic or held link as a force over the step,
-        # at its centre of mass (where it still is: pybullet has not moved it since step 1)
-        for l, (pos, _, _, _) in states:
+        # 2. the tissue advances over the interval's steps
+        self.scene.step(dt * n)
+        # 3. the grid's momentum, a share per step, as a force over it (J / (n dt): J / dt
+        # bit for bit with an interval of one step)
+        span = dt * n
+        self._shares = []
+        for l, _ in states:
             if l.mode == "static":
                 continue
             linear, angular = self.scene.shape_impulse(l.shape)
-            _p.applyExternalForce(l.body, l.link, [float(j) / dt for j in linear], pos, _p.WORLD_FRAME,
-                                  physicsClientId=self.client)
-            _p.applyExternalTorque(l.body, l.link, [float(j) / dt for j in angular], _p.WORLD_FRAME,
-                                   physicsClientId=self.client)
-        # a blade's or needle's momentum, given about its frame's origin, goes there
-        for t, (pos, _, _, _) in tools:
+            self._shares.append((l.body, l.link, None, [float(j) / span for j in linear],
+                                 [float(j) / span for j in angular]))
+        # a blade's or needle's momentum is given about its frame's origin
+        for t, _ in tools:
             if not t.feedback:
                 continue
             linear, angular = (self.scene.slicer_impulse if t.kind == "slicer" else self.scene.curve_impulse)(t.id)
-            _p.applyExternalForce(t.body, t.link, [float(j) / dt for j in linear], pos, _p.WORLD_FRAME,
-                                  physicsClientId=self.client)
-            _p.applyExternalTorque(t.body, t.link, [float(j) / dt for j in angular], _p.WORLD_FRAME,
-                                   physicsClientId=self.client)
-        # 4. pybullet integrates with the tissue's push in
-        _p.stepSimulation(physicsClientId=self.client)
-
+            self._shares.append((t.body, t.link, t, [float(j) / span for j in linear],
+                                 [float(j) / span for j in angular]))
 
 def _quat_mul(a, b):
     """Hamilton product of quaternions in pybullet's (x, y, z, w) order."""

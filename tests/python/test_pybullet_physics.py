@@ -6,6 +6,8 @@ import numpy as np
 import pybullet as p
 import pytest
 
+import mpm_bullet as mb
+
 from pybullet_scenes import G, resting_sphere, sphere_at_free_tissue
 
 
@@ -55,10 +57,13 @@ def test_sphere_resting_on_tissue_carries_its_weight():
 # scene moves the shape through its substeps while pybullet applies the step's impulse at
 # where the centre of mass was at its start, as the C++ coupler applies it to a Bullet body;
 # measured here 2.5 % of L0 = m r x v, all of it while the sphere is in contact.) With
-# pybullet's numSubSteps 4 the force must act over all four of its ticks.
-@pytest.mark.parametrize("sub_steps", [0, 4])
-def test_sphere_thrown_at_free_tissue_conserves_momentum(sub_steps):
+# pybullet's numSubSteps 4 the force must act over all four of its ticks. With the tissue
+# advanced once every 4 steps (Coupler.tissue_interval) the same holds where the intervals
+# end (the sphere has then received all of the advance's momentum).
+@pytest.mark.parametrize("sub_steps,interval", [(0, 1), (4, 1), (0, 4)])
+def test_sphere_thrown_at_free_tissue_conserves_momentum(sub_steps, interval):
     client, scene, coupler, sphere, block, mass = sphere_at_free_tissue(sub_steps)
+    coupler.tissue_interval = interval
     shape = coupler.shape_of(sphere)
 
     def total():
@@ -67,8 +72,10 @@ def test_sphere_thrown_at_free_tissue_conserves_momentum(sub_steps):
 
     p0 = total()
     drift = off_v = off_w = 0.0
-    for _ in range(20):  # 83 ms, as the C++ test's 5 frames of 1/60 s
+    for k in range(20):  # 83 ms, as the C++ test's 5 frames of 1/60 s
         coupler.step()
+        if (k + 1) % interval:
+            continue  # inside an interval: the scene is ahead of pybullet
         drift = max(drift, float(np.linalg.norm(total() - p0)))
         v, w = p.getBaseVelocity(sphere, physicsClientId=client)
         _, _, vs, ws = scene.shape_state(shape)
@@ -76,7 +83,7 @@ def test_sphere_thrown_at_free_tissue_conserves_momentum(sub_steps):
         off_w = max(off_w, float(np.abs(np.array(w) - ws).max()))
     tissue = np.array(scene.summary(block)["momentum"])
     v, w = p.getBaseVelocity(sphere, physicsClientId=client)
-    print(f"thrown sphere: p0 = {p0}, sphere p_x {mass * v[0]:.5f}, tissue p = {tissue}; largest |p - p0| = "
+    print(f"thrown sphere (tissue every {interval} steps): p0 = {p0}, sphere p_x {mass * v[0]:.5f}, tissue p = {tissue}; largest |p - p0| = "
           f"{drift:.2e} ({100 * drift / np.linalg.norm(p0):.4f} % of |p0|); sphere spin {w[1]:.3f} rad/s; pybullet "
           f"against the scene's shape: velocity {off_v:.1e} m/s, spin {off_w:.1e} rad/s")
     assert drift < 0.01 * np.linalg.norm(p0), "total momentum drift"
@@ -84,4 +91,24 @@ def test_sphere_thrown_at_free_tissue_conserves_momentum(sub_steps):
     assert mass * v[0] < 0.5 * p0[0]
     assert abs(w[1]) > 1.0, "the off-centre hit with friction spins the sphere"
     assert off_v < 1e-5 and off_w < 1e-5, "pybullet's sphere leaves each step as the scene's shape did"
+    p.disconnect(client)
+
+
+# The interval is a count of steps >= 1, changed only between intervals (as the C++
+# Coupler::setTissueInterval); a step that advances says so, and its impulses are the
+# advance's over the interval.
+def test_tissue_interval_is_checked_and_set_between_intervals():
+    client, scene, coupler, sphere, block, mass = sphere_at_free_tissue()
+    for bad in (0, -2, 1.5, True):
+        with pytest.raises(mb.InvalidArgument, match=r"Coupler.tissue_interval = .*: must be an int >= 1"):
+            coupler.tissue_interval = bad
+    coupler.tissue_interval = 2
+    coupler.step()
+    assert coupler.tissue_advanced and scene.time == pytest.approx(2 * coupler.last_dt)
+    with pytest.raises(mb.InvalidArgument, match="cannot change while an interval is open"):
+        coupler.tissue_interval = 3
+    coupler.step()
+    assert not coupler.tissue_advanced
+    coupler.tissue_interval = 3
+    assert coupler.tissue_interval == 3
     p.disconnect(client)
