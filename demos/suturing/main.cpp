@@ -3,7 +3,8 @@
 // hand holding a needle holder, coupled as an ArcDesc) turns about its axis: in through
 // the top of block 1, under the gap, out through the top of block 2, on until its tail
 // (and the thread pinned to it) has come through; then it is pulled up and back over the
-// wound at 1 cm/s until the thread carries 1 N at the needle's eye, and held there. The
+// wound at 1 cm/s until the wound's edges meet (the gap 2 mm) or the thread carries 1 N at
+// the needle's eye, as a surgeon stops, and held there. The
 // thread (a Featherstone chain coupled as LineSegmentsDesc, both ways, with the added mass
 // of the tissue it holds) starts at a fixed knot over the wound, so pulling tightens it
 // through both bites and draws the wound together. Writes PNGs (cutaway: the front half of
@@ -56,7 +57,9 @@ constexpr float kThreadLength = 0.075f;
 /// The needle's script: it waits, then turns about its centre through both bites until the
 /// tail is out (0.32 s to 5 s); then it is pulled up and back
 /// over the wound at `pullSpeed`, as a hand draws a stitch tight, until the thread carries
-/// `holdTension` at the needle's eye; from then on the needle is held where it is.
+/// `holdTension` at the needle's eye or the gap (seen once a frame) is down to `closeGap`;
+/// from then on the needle is held where it is. Pulled on, the thread cuts out through the
+/// top of a bite and the wound opens again.
 struct Script {
   float turnStart = 0.32f, turnStop = 5.f;  // [s]
   float turnAngle = 365.f * kPi / 180.f;  // the thread's eye (24 degrees behind the tail) out
@@ -68,7 +71,9 @@ struct Script {
   float holdTension = 1.f;  // [N]
   float pulled = 0.f;       // [m] along the pull's path so far
   bool pulling = false;     // in this tick
-  bool held = false;        // the tension has reached holdTension
+  float closeGap = 0.002f;  // [m]
+  bool closed = false;      // the gap has come down to closeGap (set once a frame)
+  bool held = false;        // the tension has reached holdTension or the wound has closed
 
   static float ramp(float a) {
     a = std::clamp(a, 0.f, 1.f);
@@ -78,7 +83,7 @@ struct Script {
   /// Moves the pull on over a tick ending at t, given the thread's tension at the eye.
   void advance(float t, float dt, float tension) {
     const float length = mpm::norm(pull);
-    held = held || (t > turnStop && tension >= holdTension);
+    held = held || (t > turnStop && (tension >= holdTension || closed));
     pulling = t > turnStop && !held && pulled < length;
     if (pulling) pulled = std::min(pulled + pullSpeed * dt, length);
   }
@@ -175,6 +180,8 @@ int main(int argc, char** argv) {
   float pullSpeed = 0.01f, holdTension = 1.f;
   app.add_option("--pull-speed", pullSpeed, "the needle's speed when pulled after the bites [m/s]")
       ->check(CLI::PositiveNumber);
+  float closeGap = 0.002f;
+  app.add_option("--close-gap", closeGap, "the pull stops once the gap is down to this [m]")->check(CLI::NonNegativeNumber);
   app.add_option("--hold-tension", holdTension, "the pull stops once the thread carries this at the eye [N]")
       ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
@@ -231,6 +238,7 @@ int main(int argc, char** argv) {
     Script script;
     script.pullSpeed = pullSpeed;
     script.holdTension = holdTension;
+    script.closeGap = closeGap;
     const float mass = 0.1f;
     btSphereShape needleShape(0.001f);
     btRigidBody::btRigidBodyConstructionInfo info(mass, nullptr, &needleShape, btVector3(1e-4f, 1e-4f, 1e-4f));
@@ -341,6 +349,7 @@ int main(int argc, char** argv) {
     scene.readPositions(right, b);
     const float gap0 = gapWidth(a, b, kHeight);
     float gapMin = gap0, peakForce = 0.f, peakTension = 0.f, finalTension = 0.f;
+    float heldAt = -1.f, heldGap = 0.f, heldTension = 0.f;  // where the pull stopped
     double wallTotal = 0;
     mpm::io::ProgressBar progress("suturing", frames);
     char name[64];
@@ -368,6 +377,12 @@ int main(int argc, char** argv) {
           << eyeGap * 1e3 << "," << (scene.tipInside(needleCurve) ? 1 : 0) << "," << turn << ","
           << driver.lastForce().length() << "," << wall << std::endl;
       gapMin = std::min(gapMin, gap);
+      script.closed = script.closed || (scene.time() > script.turnStop && gap <= script.closeGap);
+      if (script.held && heldAt < 0.f) {
+        heldAt = (float)scene.time();
+        heldGap = gap;
+        heldTension = (float)tension.length();
+      }
       peakForce = std::max(peakForce, (float)force.length());
       peakTension = std::max(peakTension, (float)tension.length());
       finalTension = (float)tension.length();
@@ -398,10 +413,11 @@ int main(int argc, char** argv) {
                   "gap across the wound (top 4 mm, |z| < 6 mm): %.2f mm at the start, %.2f mm at the end, %.2f mm at "
                   "the least\n"
                   "needle force: peak %.3f N (puncture force %.2f N); thread tension at the needle's eye: peak %.3f N, "
-                  "at the end %.3f N\n",
+                  "at the end %.3f N\n"
+                  "the pull held at %.2f s (gap %.2f mm, tension %.3f N over the frame; -1: never)\n",
                   solverName.c_str(), dx * 1e3, scene.particleCount(), seconds, wallTotal, wallTotal / frames,
                   gap0 * 1e3, gapWidth(a, b, kHeight) * 1e3, gapMin * 1e3, peakForce, arc.punctureForce, peakTension,
-                  finalTension);
+                  finalTension, heldAt, heldGap * 1e3, heldTension);
     summary << line;
     std::printf("%s", line);
     coupler.removeThread(thread);
