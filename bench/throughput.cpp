@@ -8,7 +8,8 @@
 // Scene variants (--variants) make the pairs of issue 6 item 3, "pay only for what a scene
 // uses": far-shapes (four kinematic shapes in the domain's top corners, far from every
 // particle), big-domain (the domain 8x larger in node count, the box the same), neo-hookean
-// (the other elastic law). The memory bandwidth of the machine is measured at the start of
+// (the other elastic law), many-shapes (100 small kinematic spheres resting on the box; -400:
+// 400). The memory bandwidth of the machine is measured at the start of
 // the run (bandwidth.h) and each row's achieved bytes per second is set against it.
 //
 //   bench_throughput --sizes 1,2.5 --variants plain,far-shapes,big-domain
@@ -62,14 +63,15 @@ static_assert(kBytesPerParticleSubstep == 204, "particle layout changed: recount
 
 /// A variant of the CRESSim scene, for the "pay only for what a scene uses" pairs.
 struct SceneVariant {
-  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough
+  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes(-400)
 
   static SceneVariant parse(const std::string& name) {
     if (name == "plain" || name == "far-shapes" || name == "big-domain" || name == "neo-hookean" ||
-        name == "slicer" || name == "slicer-tough")
+        name == "slicer" || name == "slicer-tough" || name == "many-shapes" || name == "many-shapes-400")
       return SceneVariant{name};
     throw mpm::InvalidArgument("--variants", name,
-                               "is not plain, far-shapes, big-domain, neo-hookean, slicer or slicer-tough");
+                               "is not plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes"
+                               " or many-shapes-400");
   }
   /// big-domain: [-11.1, 11.1]^3, 111 cells per axis (8.1x the nodes of 56^3), grown by
   /// whole grid blocks (7 x 0.8 m) on each side so the box sits on the grid exactly as in
@@ -117,6 +119,48 @@ struct SceneVariant {
       d.pose.position = {(i & 1) ? 4.6f : -4.6f, 4.6f, (i & 2) ? 4.6f : -4.6f};
       scene.addShape(d);
     }
+  }
+  /// many-shapes, many-shapes-400 (issue 19, "a 100-link thread is 100 bodies"): 10 x 10
+  /// (20 x 20) kinematic spheres in a square pattern over the box's top face, a tenth of a
+  /// cell into it. Radius 1.5 dx where the pattern leaves room (0.4 of its pitch otherwise:
+  /// 0.4 dx at 8000 particles, 1 dx at 125k); one under 0.75 dx reaches the grid as 0.75 dx
+  /// thick (PartView::band), like a thread's link. The box falls: each frame the spheres are
+  /// given its free fall (Spheres::follow), as a coupler gives shapes their bodies' motion
+  /// every tick, so they stay on it, and they sink into it at 0.1 dx/s: falling with the box
+  /// alone, nothing approaches them and no node exchanges momentum (measured: impulse 0);
+  /// sinking, all 100 push on the box in almost every frame of the run.
+  struct Spheres {
+    std::vector<mpm::ShapeId> ids;
+    float top = 0;   ///< the centres' height at time 0 [m]
+    float sink = 0;  ///< their speed into the box [m/s]
+    /// Places the spheres on the box's free fall at the scene's time (a kinematic shape
+    /// moves on at constant velocity within a frame: 0.5 g dt^2 = 0.2 mm behind at its end).
+    void follow(mpm::Scene& scene) const {
+      const float t = (float)scene.time(), g = scene.settings().gravity.y;
+      for (const mpm::ShapeId id : ids) {
+        mpm::ShapeState s = scene.shapeState(id);
+        s.pose.position.y = top + 0.5f * g * t * t - sink * t;
+        s.linearVelocity = {0.f, g * t - sink, 0.f};
+        scene.setShapeState(id, s);
+      }
+    }
+  };
+  Spheres addManyShapes(mpm::Scene& scene, float halfSize) const {
+    Spheres out;
+    if (name != "many-shapes" && name != "many-shapes-400") return out;
+    const int perSide = name == "many-shapes" ? 10 : 20;
+    const float dx = scene.settings().dx, pitch = 2.f * halfSize / (float)perSide;
+    const float radius = std::min(1.5f * dx, 0.4f * pitch);
+    out.top = halfSize + std::max(radius, 0.75f * dx) - 0.1f * dx;
+    out.sink = 0.1f * dx;
+    for (int i = 0; i < perSide; ++i)
+      for (int k = 0; k < perSide; ++k) {
+        mpm::ShapeDesc d;
+        d.parts.push_back(mpm::Geometry::sphere(radius));
+        d.pose.position = {-halfSize + (i + 0.5f) * pitch, out.top, -halfSize + (k + 0.5f) * pitch};
+        out.ids.push_back(scene.addShape(d));
+      }
+    return out;
   }
 };
 constexpr size_t kLargeRunParticles = 500000;      // above this, --frames-large applies
@@ -289,7 +333,9 @@ RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
   scene.addParticleObject(row.variant.box(row.halfSize));
   row.variant.addShapes(scene);
   row.variant.addSlicer(scene, row.halfSize);
+  const SceneVariant::Spheres spheres = row.variant.addManyShapes(scene, row.halfSize);
   for (int f = 0; f < kWarmupFrames; ++f) {
+    spheres.follow(scene);
     scene.step(CressimBench::kFrameDt);
     progress.update(++framesDone);
   }
@@ -301,6 +347,7 @@ RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
   const double busy0 = machineBusySeconds();
   double nextLoadCheck = 1.0;  // [s into the run] /proc/stat is read about once a second
   for (int f = 0; f < row.frames; ++f) {
+    spheres.follow(scene);
     s.substeps += scene.step(CressimBench::kFrameDt).substeps;
     progress.update(++framesDone);
     const double elapsed =
@@ -435,7 +482,11 @@ std::string pairsTable(const std::vector<Row>& rows) {
        "- slicer, slicer-tough: the cost of a cut in progress (each substep records the blade on the"
        " particles beside it; a cut particle transfers through its own side's nodes, cut_transfer.h);"
        " slicer-tough adds the resistance to cutting. Plain runs no cut code: the transfers branch on"
-       " a scene flag that stays off until a slicer is added.\n\n";
+       " a scene flag that stays off until a slicer is added.\n"
+       "- many-shapes, many-shapes-400: 100 (400) small kinematic spheres resting on the box's top"
+       " face, given its free fall every frame (issue 19: a 100-link thread is 100 bodies); the cost"
+       " of contact with many shapes at once (the contact pass, the push-out in G2P, the material"
+       " centroids in P2G, the shapes' upload each frame).\n\n";
   return t.str();
 }
 
@@ -548,7 +599,9 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " big-domain grows the domain to [-11.1, 11.1]^3 (8.1x the nodes; the box on the grid as"
        " in plain); neo-hookean uses the decoupled Neo-Hookean law instead of fixed corotated;"
        " slicer adds a blade across the box moving down at 2 m/s from 0.2 m above it (slicer-tough:"
-       " with G_c 1000 J/m^2).\n"
+       " with G_c 1000 J/m^2); many-shapes puts 10 x 10 kinematic spheres (radius 1.5 dx, at most 0.4"
+       " of their pitch) on the box's top face, a tenth of a cell into it, moved with its free fall"
+       " each frame and sinking into it at 0.1 dx/s (many-shapes-400: 20 x 20).\n"
        "- bytes/particle: `Scene::memoryBytes()` (particles, sort scratch and grid blocks) over"
        " the particle count, after the run.\n"
        "- speed-up vs 1 thread: ms/frame of the 1-thread row of the same size, from this run,"
@@ -684,7 +737,8 @@ int main(int argc, char** argv) {
   app.add_option("--out", opt.out, "path stem of the results; writes <out>.md and <out>.csv")
       ->capture_default_str();
   app.add_option("--variants", opt.variants,
-                 "scene variants: plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough (pay-for-use pairs)")
+                 "scene variants: plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes,"
+                 " many-shapes-400 (pay-for-use pairs)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--bandwidth-mib", opt.bandwidthMiB,
