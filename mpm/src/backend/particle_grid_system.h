@@ -367,6 +367,8 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     // the contact band of a node reaches one cell beyond the part's own bounds
     shapes_.place(geo_.dx);
     shapesInReach_ = exec_.partsReach(bins_, shapes_.parts(), shapes_.partCount());
+    // which parts are near which blocks, for the contact passes and G2P (CPU)
+    if (shapesInReach_) exec_.findNearParts(bins_, shapes_.parts(), shapes_.partCount());
     timings.contact += seconds(t0);
   }
   /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic

@@ -383,20 +383,74 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
   return true;
 }
 
-/// Pushes a particle that ended inside a part back to its surface. Returns whether it
-/// touches a part: lies within `touchDistance` of one.
-MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float touchDistance) {
-  bool touch = false;
-  for (int i = 0; i < nParts; ++i) {
-    if (!parts[i].mayTouch(x, x)) continue;
-    Vec3f n;
-    const float phi = parts[i].distance(x, n);
-    bool beyond = false;
-    // past a needle's arc ends the tip decides (a blunt tip pushes, one inside opens)
-    if (phi < 0.f && parts[i].type == kPartArc) parts[i].curveTangent(x, beyond);
-    if (phi < 0.f && !beyond) x -= phi * n;
-    touch = touch || phi < touchDistance;
+/// A particle touches a shape when its centre is within this of the surface: its own half
+/// spacing (a particle resting on a surface sits half a spacing from it), with a quarter
+/// more so that one resting there still touches while it vibrates.
+MPM_HD float touchDistance(float volume0) { return 0.625f * cbrtf(volume0); }
+
+/// A part in a NearParts list: its index and a copy of its bounds (PartView::boundsLower,
+/// boundsUpper), so a scan of the list reads 28 bytes a part, not a PartView's 272.
+struct NearPart {
+  int index;
+  Vec3f lower, upper;
+
+  /// PartView::mayTouch on the copy (the same floats, the same answer).
+  MPM_HD bool mayTouch(Vec3f lo, Vec3f hi) const {
+    return !(hi.x < lower.x || lo.x > upper.x || hi.y < lower.y || lo.y > upper.y || hi.z < lower.z ||
+             lo.z > upper.z);
   }
+};
+
+/// The parts that can reach a box of space, for the particles in it (CpuExec::Binning,
+/// findNearParts: the parts in reach of a grid block's particles), in increasing index
+/// order. `parts` null: no such list, every part is a candidate.
+struct NearParts {
+  const NearPart* parts = nullptr;
+  int count = 0;
+  Vec3f lower, upper;  ///< the box [m]
+
+  MPM_HD bool holds(Vec3f x) const {
+    return x.x >= lower.x && x.x <= upper.x && x.y >= lower.y && x.y <= upper.y && x.z >= lower.z && x.z <= upper.z;
+  }
+};
+
+/// One part's push-out (pushOutOfParts), once its bounds meet x; `touch` set when x lies
+/// within touchDistance of it (computed from `volume0` only then: cbrtf for every particle
+/// was 3 % of a substep). Returns whether x moved.
+MPM_HD bool pushOutOfPart(Vec3f& x, const PartView& part, float volume0, bool& touch) {
+  Vec3f n;
+  const float phi = part.distance(x, n);
+  bool beyond = false;
+  // past a needle's arc ends the tip decides (a blunt tip pushes, one inside opens)
+  if (phi < 0.f && part.type == kPartArc) part.curveTangent(x, beyond);
+  touch = touch || phi < touchDistance(volume0);
+  if (!(phi < 0.f && !beyond)) return false;
+  x -= phi * n;
+  return true;
+}
+
+/// Pushes a particle that ended inside a part back to its surface, the parts in order.
+/// Returns whether it touches a part: lies within touchDistance(volume0) of one.
+///
+/// With `near`, only its parts while x lies in its box: every other part's bounds miss the
+/// box, so mayTouch(x) fails for them and skipping them changes nothing. Once x is outside
+/// the box (it moved there, or a push took it there) the parts after the last one visited
+/// are all tried, so the result is the full loop's, bit for bit.
+MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float volume0, const NearParts& near) {
+  bool touch = false;
+  int next = 0;  // the first part not yet visited
+  if (near.parts && near.holds(x)) {
+    int k = 0;
+    for (; k < near.count; ++k) {
+      const NearPart& q = near.parts[k];
+      if (!q.mayTouch(x, x)) continue;
+      next = q.index + 1;
+      if (pushOutOfPart(x, parts[q.index], volume0, touch) && !near.holds(x)) break;
+    }
+    if (k == near.count) return touch;
+  }
+  for (int i = next; i < nParts; ++i)
+    if (parts[i].mayTouch(x, x)) pushOutOfPart(x, parts[i], volume0, touch);
   return touch;
 }
 

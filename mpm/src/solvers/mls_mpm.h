@@ -71,7 +71,7 @@ struct MlsMpm {
       P.x[p] += dt * v;
       P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
       if (cut) advectCut(P.cut[p], C, dt);
-      return finishParticle(p, P, geo, parts, nParts);
+      return finishParticle(p, P, geo, parts, nParts, nodes.nearParts());
     }
   };
 

@@ -110,7 +110,7 @@ struct StandardMpm {
         Vec3f vPic, vOld;
         Mat3f L;
         gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], vPic, L, &vOld);
-        return advance(p, vPic, vPic - vOld, L, true);
+        return advance(p, vPic, vPic - vOld, L, true, nodes.nearParts());
       }
       float dw[3][3];
       st.gradients(geo.invDx, dw);
@@ -140,16 +140,18 @@ struct StandardMpm {
         l2 += w[0][i] * T;
         vo += w[0][i] * O;
       }
-      return advance(p, vp.xyz(), (vp - vo).xyz(), Mat3f::fromColumns(l0.xyz(), l1.xyz(), l2.xyz()), false);
+      return advance(p, vp.xyz(), (vp - vo).xyz(), Mat3f::fromColumns(l0.xyz(), l1.xyz(), l2.xyz()), false,
+                     nodes.nearParts());
     }
     /// x += dt v_PIC, the PIC/FLIP velocity (dv: the grid's velocity increment seen by the
-    /// particle), F <- (I + dt L) F; a cut particle's plane moves with it.
-    MPM_HD StepCheck advance(uint32_t p, Vec3f vPic, Vec3f dv, const Mat3f& L, bool cut) const {
+    /// particle), F <- (I + dt L) F; a cut particle's plane moves with it. `near`: the
+    /// nodes' list of the parts near the particle (finishParticle).
+    MPM_HD StepCheck advance(uint32_t p, Vec3f vPic, Vec3f dv, const Mat3f& L, bool cut, const NearParts& near) const {
       P.x[p] += dt * vPic;
       P.v[p] = flip * (P.v[p] + dv) + (1.f - flip) * vPic;
       P.F[p] = (Mat3f::identity() + dt * L) * P.F[p];
       if (cut) advectCut(P.cut[p], L, dt);
-      return finishParticle(p, P, geo, parts, nParts);
+      return finishParticle(p, P, geo, parts, nParts, near);
     }
   };
 

@@ -101,20 +101,17 @@ MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, cons
       Mat3f::fromColumns(dx * (bi.xyz() - fx.x * v), dx * (bj.xyz() - fx.y * v), dx * (bk.xyz() - fx.z * v));
 }
 
-/// A particle touches a shape when its centre is within this of the surface: its own half
-/// spacing (a particle resting on a surface sits half a spacing from it), with a quarter
-/// more so that one resting there still touches while it vibrates.
-MPM_HD float touchDistance(float volume0) { return 0.625f * cbrtf(volume0); }
-
 /// The end of every solver's G2P: push the particle out of the shapes it ended inside,
-/// then check it (state finite, stencil on the grid) and report its speed.
+/// then check it (state finite, stencil on the grid) and report its speed. `near`: the
+/// parts near the particle's block, from the node accessor (Nodes::nearParts; the CPU's
+/// block tile has them, the GPU tries every part).
 MPM_HD StepCheck finishParticle(uint32_t p, const ParticleView& P, const GridGeometry& geo, const PartView* parts,
-                                int nParts) {
+                                int nParts, const NearParts& near) {
   StepCheck c;
   const Vec3f x = P.x[p], v = P.v[p];
   const float sum = x.x + x.y + x.z + v.x + v.y + v.z + trace(P.F[p]);
   if (!isFinite(sum) || !geo.stencilInside(x)) c.firstBadParticle = p;
-  P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, touchDistance(P.volume0[p])) ? 1.f : 0.f;
+  P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, P.volume0[p], near) ? 1.f : 0.f;
   c.maxSpeed2 = dot(v, v);
   return c;
 }
@@ -204,6 +201,8 @@ struct GridNodes {
     const GridNode& n = grid.node(i, j, k);
     return Float4::make(0.f, n.dmv.x, n.dmv.y, n.dmv.z);
   }
+  /// No list of the parts near a particle: G2P tries every part (finishParticle).
+  MPM_HD NearParts nearParts() const { return NearParts{}; }
 };
 
 }  // namespace mpm

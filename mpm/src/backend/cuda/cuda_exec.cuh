@@ -211,6 +211,8 @@ struct CudaExec {
   /// on the device every substep, so the CUDA backend answers yes whenever parts exist (a
   /// far shape still costs its contact terms there; the CPU backend skips them).
   bool partsReach(const Binning& /*b*/, const PartView* /*parts*/, int nParts) const { return nParts > 0; }
+  /// Every node and particle tries every part (bounds first): no lists per block.
+  void findNearParts(Binning& /*b*/, const PartView* /*parts*/, int /*nParts*/) {}
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass);
   template <class F>
