@@ -12,12 +12,13 @@
 // time, needle force, gap across the wound, thread tension at the needle's eye, wall time)
 // and summary.txt.
 //
-// Status (dx 2.5 mm, 12 s, 240 frames, 517 s on 2 cores; MLS-MPM): the tip breaks into
-// block 1 at 1.05 s, the needle goes through both bites (peak force 0.137 N) and draws the
-// thread after it; pulled up over the wound the thread, held by the tissue
-// (ThreadCoupling::addedMass) and its eye pinned within 13 um, reaches 1 N at 9.85 s and
-// draws the gap from 7.25 to 2.23 mm, a third being 2.42 (README, Suturing). --one-way
-// and --no-added-mass show the couplings without the hold.
+// Status (dx 2.5 mm, 12 s, 240 frames, 822 s on 2 shared cores; MLS-MPM): the tip breaks
+// into block 1 at 1.05 s, the needle goes through both bites (peak force 0.136 N) and draws
+// the thread after it; pulled up over the wound the thread, held by the tissue
+// (ThreadCoupling::addedMass) and its eye pinned within 14 um, draws the gap from 7.25 mm
+// to 1.95 mm at 10.55 s (0.74 N), where the pull stops and holds (2.03 mm at the end, a
+// third being 2.42; README, Suturing). --solver pb advances PB-MPM every 6 ticks
+// (--tissue-interval); --one-way and --no-added-mass show the couplings without the hold.
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>
 #include <BulletDynamics/Featherstone/btMultiBody.h>
