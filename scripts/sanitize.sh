@@ -76,7 +76,7 @@ ASAN_EXCLUDE+="|Mtled\\.(SlipCompression|BondedCompression|PaperPointDerivatives
 ASAN_EXCLUDE+="|Cutting\\.(TheBladeFeelsTheToughness|ACutStaysCut)|CuttingConvergence"  # 12, 1.5, 17 s in Release
 ASAN_EXCLUDE+="|Suturing\\.(InsertionProfile|SlidesAlongItselfDragsSideways|TighteningAStitchClosesTheGap|ThreadSlidesAlongItself|InsertionConservesMomentum|Checkpoint)"  # 27, 18, 11, 6.5, 4.5 s in Release; Checkpoint 64 s under ASan
 ASAN_EXCLUDE+="|NeedleCoupling\\.BlockGainsWhatTheNeedleLoses"       # 14 s under ASan
-ASAN_EXCLUDE+="|PullingTheStitch\\.ClosesTheGapPbMpm|NeedlePass\\."  # 91, 71 s in Release (the MLS-MPM stitch: 475 s here); ThreadCouplingInterval runs a thread across an interval
+ASAN_EXCLUDE+="|PullingTheStitch\\.|NeedlePass\\."  # 90-113, 71-82 s in Release; the MLS-MPM stitch took 475 s here, then > 600 s (the timeout); ThreadCouplingInterval runs a thread across an interval, AddedMassIsTheHeldNodes the added mass
 ASAN_EXCLUDE+="|Package\\."                                        # installs and builds a project: nothing to sanitize
 
 # --- ThreadSanitizer ----------------------------------------------------------------------
