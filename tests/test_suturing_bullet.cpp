@@ -889,8 +889,8 @@ TEST(PullingTheStitch, ClosesTheGapPbMpm) { expectStitchClosed(pullStitch(Solver
 // turns 365 degrees about its centre 6 mm above the tops in 2.5 s: in through block 1,
 // under the 6 mm gap, out of block 2, until the eye 5 mm behind its tail is out. Its eye
 // draws a 3-0 thread (30 one-cell links, 0.05 g/m, added mass) from a knot over the wound.
-// After the pass: the tip broke in; the thread runs through both blocks (segment
-// midpoints inside each block's box); links within 1 % of their length, the eye's pin
+// After the pass: the tip broke in; the thread runs through both blocks (at least 3 segment
+// midpoints inside each block's box, measured 6 and 4); links within 1 % of their length, the eye's pin
 // within 1 % of a segment, nothing NaN; the kinetic energy of tissue and thread never
 // exceeds what all of it would have moving at the needle's fastest point (the needle is
 // the only thing that moves them); the needle and thread cut nothing: each block is one
@@ -1042,8 +1042,10 @@ TEST(NeedlePass, DrawsTheThreadThroughBothBlocks) {
               energyOver, fastestNeedle, piecesLeft, piecesRight);
   EXPECT_TRUE(brokeIn);
   EXPECT_TRUE(watch.finite);
-  EXPECT_GE(inLeft, 1);
-  EXPECT_GE(inRight, 1);
+  // the arc runs about 4 segments' length through each block under its top: a thread
+  // that only caught a corner, or slipped back out, would leave fewer there
+  EXPECT_GE(inLeft, 3);
+  EXPECT_GE(inRight, 3);
   EXPECT_LT(watch.length, 0.01);
   EXPECT_LT(pin, 0.01);
   EXPECT_LE(energyOver, 1e-9) << "the tissue's kinetic energy exceeded the work done on it";
