@@ -129,6 +129,67 @@ TEST(FixedCorotated, BatchedStressMatchesPerParticle) {
   }
 }
 
+#ifdef MPM_STRESS_BATCH
+// J^-2/3 of the batched Neo-Hookean stress is Newton's iteration from a guess made of the
+// exponent bits: over 60 decades of x it must give 1 / cbrt(x) to a few float roundings,
+// and mark the lanes it cannot take (zero, negative, huge, NaN).
+TEST(NeoHookeanDecoupled, LaneInverseCubeRootIsCorrectlyRounded) {
+  using simd::kLanes;
+  double worst = 0;
+  for (double e = -29.5; e < 29.5; e += 0.0137 * kLanes) {
+    simd::Floats x;
+    for (int l = 0; l < kLanes; ++l) x[l] = (float)std::pow(10.0, e + 0.0137 * l);
+    simd::Mask outside;
+    const simd::Floats y = inverseCbrtLanes(x, outside);
+    for (int l = 0; l < kLanes; ++l) {
+      ASSERT_EQ(outside[l], 0) << x[l];
+      worst = std::max(worst, std::abs(y[l] * std::cbrt((double)x[l]) - 1.0));
+    }
+  }
+  EXPECT_LT(worst, 4.0 * 6e-8) << "relative error of the lanes' 1 / cbrt(x)";
+  simd::Floats odd = simd::splat(1.f);
+  odd[0] = 0.f, odd[1] = -1.f, odd[2] = std::nanf(""), odd[3] = 1e35f;
+  simd::Mask outside;
+  inverseCbrtLanes(odd, outside);
+  for (int l = 0; l < 4; ++l) EXPECT_NE(outside[l], 0) << "lane " << l << " x " << odd[l];
+}
+#endif
+
+// A batch of Neo-Hookean particles only (the lanes of fixed corotated are not computed):
+// kirchhoffStress's tau particle by particle, at large strains, inverted (J < 0), nearly
+// flat, exactly flat (J = 0: the scalar path's infinite J^-2/3) and tiny J (outside the
+// lanes' range: the scalar path).
+TEST(NeoHookeanDecoupled, BatchedStressMatchesPerParticle) {
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<double> s(0.2, 3.0);
+  MaterialParams mat;
+  mat.model = kNeoHookeanDecoupled, mat.mu = 3e4f, mat.bulk = 1e6f;
+  const int n = 517;
+  std::vector<Mat3f> F(n), tau(n);
+  std::vector<uint32_t> object(n, 0), ids(n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d sig(s(rng), s(rng), s(rng));
+    if (i % 4 == 0) sig(i % 3) *= -1;          // inverted
+    if (i % 7 == 0) sig((i + 1) % 3) *= 1e-3;  // nearly flat
+    if (i % 13 == 0) sig((i + 2) % 3) *= 1e-16;  // J^2 below the lanes' range
+    F[i] = fromEigen(randomRotation(rng) * sig.asDiagonal() * randomRotation(rng).transpose());
+    ids[i] = (uint32_t)((i * 7) % n);
+  }
+  F[100] = Mat3f::identity();
+  F[100].m[2][2] = 0.f;  // flat: J = 0
+  kirchhoffStressBatch(&mat, object.data(), F.data(), ids.data(), n, tau.data());
+  for (int q = 0; q < n; ++q) {
+    const uint32_t i = ids[q];
+    const Mat3f want = kirchhoffStress(mat, F[i]);
+    if (!toEigen(want).allFinite()) {
+      EXPECT_FALSE(toEigen(tau[q]).allFinite()) << "particle " << i;
+      continue;
+    }
+    const double scale = toEigen(want).norm() + 1e-3 * mat.mu;
+    EXPECT_LT((toEigen(tau[q]) - toEigen(want)).norm(), 1e-5 * scale) << "particle " << i;
+  }
+}
+
 TEST(FixedCorotated, PureRotationIsStressFree) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 50; ++trial) {

@@ -1,10 +1,10 @@
 #pragma once
 // The Kirchhoff stress of many particles at once, for the CPU's P2G: kLanes particles per
-// SIMD vector (SoA inside a batch: one vector per matrix entry). The law and its polar
-// decomposition are those of core/constitutive.h (kirchhoffFixedCorotated with
-// fastPolarRotation), lane by lane; the device and the other laws keep the per-particle
-// functions. Host only (GCC / Clang vector extensions); elsewhere every particle takes the
-// per-particle path.
+// SIMD vector (SoA inside a batch: one vector per matrix entry). The laws are those of
+// core/constitutive.h (kirchhoffFixedCorotated with fastPolarRotation's polar
+// decomposition, kirchhoffNeoHookeanDecoupled), lane by lane; the device keeps the
+// per-particle functions. Host only (GCC / Clang vector extensions); elsewhere every
+// particle takes the per-particle path.
 //
 // Why: the stress is the largest part of an MLS-MPM substep (the Newton polar iteration
 // of fixed corotated is 40 % of P2G at 125k particles); per particle it runs on scalar
@@ -102,33 +102,91 @@ inline void fixedCorotatedLanes(const simd::Floats f[9], const simd::Floats& mu,
 }
 #endif
 
-/// tau[q] = kirchhoffStress(materials[object[ids[q]]], F[ids[q]]) for q < n: fixed
-/// corotated particles kLanes at a time, the rest one by one.
+/// 1 / cbrt(x) in every lane, for kirchhoffNeoHookeanDecoupled's J^-2/3 = 1 / cbrt(J^2)
+/// (cbrtf has no vector form here: per particle it was a tenth of the embedding scene's
+/// substep). A first guess from the exponent bits, then Newton's iteration for x y^3 = 1,
+/// y <- y (4 - x y^3) / 3, whose relative error e goes to about 2 e^2: from the guess's
+/// few per cent to float rounding in three steps (measured: 1.7e-7 at the most, 1.9e-5
+/// after two). `outside` marks the lanes where x is not a
+/// positive normal float far enough from the limits for y^3 x to stay finite (zero,
+/// negative, huge, NaN): those lanes' results are not to be used.
+inline simd::Floats inverseCbrtLanes(const simd::Floats& x, simd::Mask& outside) {
+  using simd::Floats;
+  using simd::Mask;
+  outside = ~((x > 1e-30f) & (x < 1e30f));  // not(inside) also marks NaN
+  const Floats safe = outside ? simd::splat(1.f) : x;
+  Mask bits;
+  __builtin_memcpy(&bits, &safe, sizeof bits);
+  bits = 0x54a2fa8c - bits / 3;  // bits of x^-1/3 to a few per cent
+  Floats y;
+  __builtin_memcpy(&y, &bits, sizeof y);
+  for (int it = 0; it < 3; ++it) y = y * (4.f - safe * (y * y * y)) * (1.f / 3.f);
+  return y;
+}
+
+/// Decoupled Neo-Hookean stress (kirchhoffNeoHookeanDecoupled) of the kLanes matrices f[9]:
+/// tau = mu dev(J^-2/3 B) + K J (J - 1) I. `scalar` marks the lanes whose J^2 is outside
+/// inverseCbrtLanes' range (flat or not finite), whose tau is left to the caller.
+inline void neoHookeanDecoupledLanes(const simd::Floats f[9], const simd::Floats& mu, const simd::Floats& bulk,
+                                     simd::Floats tau[9], simd::Mask& scalar) {
+  using simd::Floats;
+  const Floats J = f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) +
+                   f[2] * (f[3] * f[7] - f[4] * f[6]);
+  const Floats muJm23 = mu * inverseCbrtLanes(J * J, scalar);
+  for (int i = 0; i < 3; ++i)
+    for (int j = i; j < 3; ++j) {
+      const Floats b = f[3 * i] * f[3 * j] + f[3 * i + 1] * f[3 * j + 1] + f[3 * i + 2] * f[3 * j + 2];
+      tau[3 * i + j] = tau[3 * j + i] = muJm23 * b;  // B = F F^T is symmetric
+    }
+  const Floats diag = -(tau[0] + tau[4] + tau[8]) * (1.f / 3.f) + bulk * J * (J - 1.f);
+  tau[0] += diag;
+  tau[4] += diag;
+  tau[8] += diag;
+}
+
+/// tau[q] = kirchhoffStress(materials[object[ids[q]]], F[ids[q]]) for q < n: kLanes
+/// particles at a time, each law's lanes computed only when the batch holds one of its
+/// particles; the lanes a law leaves to the scalar path take kirchhoffStress.
 inline void kirchhoffStressBatch(const MaterialParams* materials, const uint32_t* object, const Mat3f* F,
                                  const uint32_t* ids, int n, Mat3f* tau) {
 #ifdef MPM_STRESS_BATCH
   using simd::kLanes;
   for (int q0 = 0; q0 < n; q0 += kLanes) {
     const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
-    simd::Floats f[9], mu = simd::splat(0.f), lambda = simd::splat(0.f), t[9];
-    simd::Mask other = simd::Mask{} + 1;  // lanes the batch leaves to kirchhoffStress
+    simd::Floats f[9], mu = simd::splat(0.f), second = simd::splat(0.f);  // second: lambda or K
+    simd::Mask model = simd::Mask{} - 1;  // -1: a lane left to kirchhoffStress (unused lanes too)
+    bool corotated = false, neoHookean = false;
     for (int l = 0; l < kLanes; ++l) {
       // unused lanes compute the identity's zero stress
       const Mat3f& Fl = l < lanes ? F[ids[q0 + l]] : Mat3f::identity();
       for (int e = 0; e < 9; ++e) f[e][l] = Fl.m[e / 3][e % 3];
       if (l >= lanes) continue;
       const MaterialParams& mat = materials[object[ids[q0 + l]]];
-      if (mat.model != kFixedCorotated) continue;
-      other[l] = 0;
+      if (mat.model == kFixedCorotated) {
+        corotated = true;
+        second[l] = mat.lambda;
+      } else if (mat.model == kNeoHookeanDecoupled) {
+        neoHookean = true;
+        second[l] = mat.bulk;
+      } else {
+        continue;
+      }
+      model[l] = mat.model;
       mu[l] = mat.mu;
-      lambda[l] = mat.lambda;
     }
-    simd::Mask scalar;
-    fixedCorotatedLanes(f, mu, lambda, t, scalar);
+    simd::Floats t[9] = {}, tNeo[9];
+    simd::Mask scalar = simd::Mask{}, scalarNeo = simd::Mask{};
+    if (corotated) fixedCorotatedLanes(f, mu, second, t, scalar);
+    if (neoHookean) {
+      neoHookeanDecoupledLanes(f, mu, second, tNeo, scalarNeo);
+      const simd::Mask isNeo = model == (int)kNeoHookeanDecoupled;
+      for (int e = 0; e < 9; ++e) t[e] = isNeo ? tNeo[e] : t[e];
+      scalar = isNeo ? scalarNeo : scalar;
+    }
     for (int l = 0; l < lanes; ++l) {
       const uint32_t p = ids[q0 + l];
       Mat3f& out = tau[q0 + l];
-      if (other[l] || scalar[l]) {
+      if (model[l] < 0 || scalar[l]) {
         out = kirchhoffStress(materials[object[p]], F[p]);
         continue;
       }
