@@ -190,6 +190,45 @@ TEST(NeoHookeanDecoupled, BatchedStressMatchesPerParticle) {
   }
 }
 
+// PB-MPM's P2G projects many particles at once (pbProjectionBatch: the polar rotation,
+// J^(1/3) and F^-1 in SIMD lanes). It must give pbProjectedVelocityGradient particle by
+// particle: large strains and rates, F* inverted (J <= 0: F_c = R) or nearly flat, a
+// non-finite C, rigidity 1 and 0.3, and a partial last batch.
+TEST(PbProjection, BatchedMatchesPerParticle) {
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<double> s(0.3, 2.5), u(-1.0, 1.0);
+  const float dt = 1.f / 240.f;
+  const int n = 389;
+  std::vector<Mat3f> F(n), C(n), Cc(n);
+  std::vector<uint32_t> ids(n);
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d sig(s(rng), s(rng), s(rng));
+    if (i % 7 == 0) sig((i + 1) % 3) *= 1e-3;  // nearly flat
+    F[i] = fromEigen(randomRotation(rng) * sig.asDiagonal() * randomRotation(rng).transpose());
+    Eigen::Matrix3d c;
+    for (int e = 0; e < 9; ++e) c(e / 3, e % 3) = 30.0 * u(rng);  // |dt C| up to about 0.4
+    if (i % 5 == 0) c = -1.5 / dt * Eigen::Matrix3d::Identity();  // F* = -F / 2: inverted
+    C[i] = fromEigen(c);
+    ids[i] = (uint32_t)((i * 11) % n);
+  }
+  C[200].m[0][1] = std::nanf("");
+  for (float rigidity : {1.f, 0.3f}) {
+    pbProjectionBatch(F.data(), C.data(), ids.data(), n, dt, 0.9f, rigidity, Cc.data());
+    for (int q = 0; q < n; ++q) {
+      const uint32_t i = ids[q];
+      const Mat3f want = pbProjectedVelocityGradient(F[i], C[i], dt, 0.9f, rigidity);
+      if (!toEigen(want).allFinite()) {
+        EXPECT_FALSE(toEigen(Cc[q]).allFinite()) << "particle " << i;
+        continue;
+      }
+      // C_c is a rate: compare dt C_c, the deformation it makes in a step, against 1
+      const double scale = dt * toEigen(want).norm() + 1.0;
+      EXPECT_LT(dt * (toEigen(Cc[q]) - toEigen(want)).norm(), 2e-5 * scale)
+          << "particle " << i << " rigidity " << rigidity;
+    }
+  }
+}
+
 TEST(FixedCorotated, PureRotationIsStressFree) {
   std::mt19937 rng(3);
   for (int trial = 0; trial < 50; ++trial) {

@@ -18,7 +18,7 @@
 // first cycle only; walls and rigid contact act in every cycle (the momentum each cycle
 // gives a shape is summed, so the exchange stays exact). The material's E and nu play no
 // part: stiffness comes from the iterations (more iterations, stiffer), as in PBD.
-#include "core/polar.h"
+#include "core/pb_projection.h"
 #include "solvers/cut_transfer.h"
 
 namespace mpm {
@@ -41,18 +41,18 @@ struct PbMpm {
     float rigidity;
     bool cuts;          ///< some particle may be cut (ParticleGridSystem::cuts)
     const Vec3f* push;  ///< resistance to cutting, first cycle only, or null (ParticleGridSystem::cuttingPush)
+    /// The projection enters only through C_c = pbProjectedVelocityGradient(F, C, ...):
+    /// the CPU computes it for many particles at once (backend/cpu/stress_batch.h) and
+    /// hands it to scatterProjected; the device calls operator().
+    static constexpr bool kBatchedProjection = true;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
+      scatterProjected(p, pbProjectedVelocityGradient(P.F[p], P.C[p], dt, relaxation, rigidity), nodes);
+    }
+    template <class Nodes>
+    MPM_HD void scatterProjected(uint32_t p, const Mat3f& Cc, Nodes& nodes) const {
       const QuadraticStencil st(geo, P.x[p]);
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
-      const Mat3f I = Mat3f::identity();
-      const Mat3f F = P.F[p], C = P.C[p];
-      const Mat3f Fstar = (I + dt * C) * F;
-      const Mat3f R = fastPolarRotation(Fstar);
-      const float J = determinant(Fstar);
-      const Mat3f isochoric = J > 0.f ? (1.f / cbrtf(J)) * Fstar : R;
-      const Mat3f Fc = rigidity * R + (1.f - rigidity) * isochoric;
-      const Mat3f Cc = C + relaxation * ((1.f / dt) * (Fc * inverse(F) - I) - C);
       const float m = P.mass[p];
       const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
       if (cuts && isCut(P.cut[p]))

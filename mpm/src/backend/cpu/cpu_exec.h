@@ -51,6 +51,12 @@ template <class F, class = void>
 struct BatchesStress : std::false_type {};
 template <class F>
 struct BatchesStress<F, std::void_t<decltype(F::kBatchedStress)>> : std::bool_constant<F::kBatchedStress> {};
+/// PB-MPM's P2G: the projected velocity gradient enters only through scatterProjected
+/// (pbProjectionBatch computes it for a run of particles at once).
+template <class F, class = void>
+struct BatchesProjection : std::false_type {};
+template <class F>
+struct BatchesProjection<F, std::void_t<decltype(F::kBatchedProjection)>> : std::bool_constant<F::kBatchedProjection> {};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -315,18 +321,23 @@ struct CpuExec {
       {
         constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
         BlockTile tile;
-        Mat3f tau[kStressRun];  // BatchesStress: the stresses of the next particles
+        Mat3f tau[kStressRun];  // BatchesStress / BatchesProjection: the next particles' tau or C_c
         for (const auto& blocks : colour_) {
 #pragma omp for schedule(dynamic, 1)
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
             tile.clear<kMx, kDmv>();
-            if constexpr (BatchesStress<F>::value) {
+            if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
               for (uint32_t r = start_[j]; r < start_[j + 1];) {
                 const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
-                kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
-                for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                if constexpr (BatchesStress<F>::value) {
+                  kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
+                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                } else {
+                  pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
+                  for (int q = 0; q < n; ++q) f.scatterProjected(order_[r + q], tau[q], tile);
+                }
                 r += n;
               }
             } else {

@@ -1,17 +1,20 @@
 #pragma once
-// The Kirchhoff stress of many particles at once, for the CPU's P2G: kLanes particles per
-// SIMD vector (SoA inside a batch: one vector per matrix entry). The laws are those of
-// core/constitutive.h (kirchhoffFixedCorotated with fastPolarRotation's polar
-// decomposition, kirchhoffNeoHookeanDecoupled), lane by lane; the device keeps the
-// per-particle functions. Host only (GCC / Clang vector extensions); elsewhere every
+// The material's response of many particles at once, for the CPU's P2G: kLanes particles
+// per SIMD vector (SoA inside a batch: one vector per matrix entry). The Kirchhoff stress
+// of the laws of core/constitutive.h (kirchhoffFixedCorotated with fastPolarRotation's
+// polar decomposition, kirchhoffNeoHookeanDecoupled) for MLS-MPM, and PB-MPM's constraint
+// projection (core/pb_projection.h), lane by lane the same arithmetic; the device keeps
+// the per-particle functions. Host only (GCC / Clang vector extensions); elsewhere every
 // particle takes the per-particle path.
 //
 // Why: the stress is the largest part of an MLS-MPM substep (the Newton polar iteration
-// of fixed corotated is 40 % of P2G at 125k particles); per particle it runs on scalar
+// of fixed corotated is 40 % of P2G at 125k particles), and PB-MPM's polar rotation was
+// 30 % of its iterations on the embedding scene; per particle they run on scalar
 // instructions, one lane of the machine's vectors.
 #include <cstdint>
 
 #include "core/constitutive.h"
+#include "core/pb_projection.h"
 
 namespace mpm {
 
@@ -43,23 +46,24 @@ inline bool any(Mask m) {
 }
 }  // namespace simd
 
-/// Fixed corotated stress (kirchhoffFixedCorotated) of the kLanes matrices f[9] (row-major
-/// entries, one lane per particle). The rotation comes from fastPolarRotation's Newton
-/// iteration, every lane stopping at the iteration at which it converges on its own;
+/// det of the kLanes matrices f[9] (row-major entries, one lane per particle).
+inline simd::Floats determinantLanes(const simd::Floats f[9]) {
+  return f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) + f[2] * (f[3] * f[7] - f[4] * f[6]);
+}
+
+/// fastPolarRotation of the kLanes matrices f[9] with determinants detF: Newton's
+/// iteration, every lane stopping at the iteration at which it converges on its own.
 /// `scalar` marks the lanes that its Jacobi path must take (flat, inverted, not finite or
-/// not converged), whose tau is left to the caller.
-inline void fixedCorotatedLanes(const simd::Floats f[9], const simd::Floats& mu, const simd::Floats& lambda,
-                                simd::Floats tau[9], simd::Mask& scalar) {
+/// not converged), whose R is not to be used.
+inline void polarRotationLanes(const simd::Floats f[9], const simd::Floats& detF, simd::Floats R[9],
+                               simd::Mask& scalar) {
   using simd::Floats;
   using simd::Mask;
   Floats nF2 = f[0] * f[0];
   for (int e = 1; e < 9; ++e) nF2 += f[e] * f[e];
-  const Floats detF = f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) +
-                      f[2] * (f[3] * f[7] - f[4] * f[6]);
   // det F against |F|^3, as fastPolarRotation; written as not(>) so NaN lanes fail it
   Mask active = detF > 1e-4f * nF2 * simd::sqrtLanes(nF2);
   scalar = ~active;
-  Floats R[9];
   for (int e = 0; e < 9; ++e) R[e] = f[e];
   Floats r2 = nF2;
   for (int it = 0; it < 12 && simd::any(active); ++it) {
@@ -90,6 +94,16 @@ inline void fixedCorotatedLanes(const simd::Floats f[9], const simd::Floats& mu,
     active &= ~(d2 < 1e-10f);  // converged lanes keep this R
   }
   scalar |= active;  // not converged in 12 iterations
+}
+
+/// Fixed corotated stress (kirchhoffFixedCorotated) of the kLanes matrices f[9], with the
+/// rotation of polarRotationLanes; `scalar` marks the lanes whose tau is left to the caller.
+inline void fixedCorotatedLanes(const simd::Floats f[9], const simd::Floats& mu, const simd::Floats& lambda,
+                                simd::Floats tau[9], simd::Mask& scalar) {
+  using simd::Floats;
+  const Floats detF = determinantLanes(f);
+  Floats R[9];
+  polarRotationLanes(f, detF, R, scalar);
   // tau = 2 mu (F - R) F^T + lambda (J - 1) J I
   const Floats twoMu = 2.f * mu, vol = lambda * (detF - 1.f) * detF;
   for (int i = 0; i < 3; ++i)
@@ -100,7 +114,6 @@ inline void fixedCorotatedLanes(const simd::Floats f[9], const simd::Floats& mu,
       tau[3 * i + j] = twoMu * s + (i == j ? vol : simd::splat(0.f));
     }
 }
-#endif
 
 /// 1 / cbrt(x) in every lane, for kirchhoffNeoHookeanDecoupled's J^-2/3 = 1 / cbrt(J^2)
 /// (cbrtf has no vector form here: per particle it was a tenth of the embedding scene's
@@ -130,8 +143,7 @@ inline simd::Floats inverseCbrtLanes(const simd::Floats& x, simd::Mask& outside)
 inline void neoHookeanDecoupledLanes(const simd::Floats f[9], const simd::Floats& mu, const simd::Floats& bulk,
                                      simd::Floats tau[9], simd::Mask& scalar) {
   using simd::Floats;
-  const Floats J = f[0] * (f[4] * f[8] - f[5] * f[7]) - f[1] * (f[3] * f[8] - f[5] * f[6]) +
-                   f[2] * (f[3] * f[7] - f[4] * f[6]);
+  const Floats J = determinantLanes(f);
   const Floats muJm23 = mu * inverseCbrtLanes(J * J, scalar);
   for (int i = 0; i < 3; ++i)
     for (int j = i; j < 3; ++j) {
@@ -142,6 +154,81 @@ inline void neoHookeanDecoupledLanes(const simd::Floats f[9], const simd::Floats
   tau[0] += diag;
   tau[4] += diag;
   tau[8] += diag;
+}
+
+/// Entries of M[ids[l]] into lane l of f[9] for l < lanes; `fill` in the unused lanes.
+inline void loadLanes(const Mat3f* M, const uint32_t* ids, int lanes, const Mat3f& fill, simd::Floats f[9]) {
+  for (int l = 0; l < simd::kLanes; ++l) {
+    const Mat3f& Ml = l < lanes ? M[ids[l]] : fill;
+    for (int e = 0; e < 9; ++e) f[e][l] = Ml.m[e / 3][e % 3];
+  }
+}
+
+/// PB-MPM's projected velocity gradient (pbProjectedVelocityGradient) of the kLanes
+/// particles with F f[9] and C c[9]; `scalar` marks the lanes left to the caller (the
+/// polar rotation's Jacobi path, or J^(1/3) outside inverseCbrtLanes' range).
+inline void pbProjectionLanes(const simd::Floats f[9], const simd::Floats c[9], float dt, float relaxation,
+                              float rigidity, simd::Floats out[9], simd::Mask& scalar) {
+  using simd::Floats;
+  Floats fs[9];  // F* = (I + dt C) F
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const Floats a0 = dt * c[3 * i] + (i == 0 ? 1.f : 0.f), a1 = dt * c[3 * i + 1] + (i == 1 ? 1.f : 0.f),
+                   a2 = dt * c[3 * i + 2] + (i == 2 ? 1.f : 0.f);
+      fs[3 * i + j] = a0 * f[j] + a1 * f[3 + j] + a2 * f[6 + j];
+    }
+  const Floats J = determinantLanes(fs);
+  Floats R[9];
+  polarRotationLanes(fs, J, R, scalar);
+  simd::Mask outside;
+  const Floats invCbrtJ = inverseCbrtLanes(J, outside);
+  const simd::Mask positive = J > 0.f;
+  scalar |= outside & ~(J <= 0.f);  // J <= 0 takes R; tiny, huge or NaN J the scalar path
+  Floats fc[9];
+  for (int e = 0; e < 9; ++e) fc[e] = rigidity * R[e] + (1.f - rigidity) * (positive ? invCbrtJ * fs[e] : R[e]);
+  // F^-1 = cof(F)^T / det F
+  const Floats invDet = 1.f / determinantLanes(f);
+  Floats inv[9];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int r0 = (j + 1) % 3, r1 = (j + 2) % 3, c0 = (i + 1) % 3, c1 = (i + 2) % 3;
+      inv[3 * i + j] = invDet * (f[3 * r0 + c0] * f[3 * r1 + c1] - f[3 * r0 + c1] * f[3 * r1 + c0]);
+    }
+  // C_c = C + omega ((F_c F^-1 - I) / dt - C)
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const Floats fcInv = fc[3 * i] * inv[j] + fc[3 * i + 1] * inv[3 + j] + fc[3 * i + 2] * inv[6 + j];
+      const Floats rate = (1.f / dt) * (fcInv - (i == j ? 1.f : 0.f));
+      out[3 * i + j] = c[3 * i + j] + relaxation * (rate - c[3 * i + j]);
+    }
+}
+#endif  // the lanes (GCC / Clang vector extensions)
+
+/// Cc[q] = pbProjectedVelocityGradient(F[ids[q]], C[ids[q]], ...) for q < n, kLanes
+/// particles at a time.
+inline void pbProjectionBatch(const Mat3f* F, const Mat3f* C, const uint32_t* ids, int n, float dt,
+                              float relaxation, float rigidity, Mat3f* Cc) {
+#ifdef MPM_STRESS_BATCH
+  using simd::kLanes;
+  for (int q0 = 0; q0 < n; q0 += kLanes) {
+    const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
+    simd::Floats f[9], c[9], out[9];
+    loadLanes(F, ids + q0, lanes, Mat3f::identity(), f);
+    loadLanes(C, ids + q0, lanes, Mat3f{}, c);
+    simd::Mask scalar;
+    pbProjectionLanes(f, c, dt, relaxation, rigidity, out, scalar);
+    for (int l = 0; l < lanes; ++l) {
+      const uint32_t p = ids[q0 + l];
+      if (scalar[l]) {
+        Cc[q0 + l] = pbProjectedVelocityGradient(F[p], C[p], dt, relaxation, rigidity);
+        continue;
+      }
+      for (int e = 0; e < 9; ++e) Cc[q0 + l].m[e / 3][e % 3] = out[e][l];
+    }
+  }
+#else
+  for (int q = 0; q < n; ++q) Cc[q] = pbProjectedVelocityGradient(F[ids[q]], C[ids[q]], dt, relaxation, rigidity);
+#endif
 }
 
 /// tau[q] = kirchhoffStress(materials[object[ids[q]]], F[ids[q]]) for q < n: kLanes
@@ -156,11 +243,8 @@ inline void kirchhoffStressBatch(const MaterialParams* materials, const uint32_t
     simd::Floats f[9], mu = simd::splat(0.f), second = simd::splat(0.f);  // second: lambda or K
     simd::Mask model = simd::Mask{} - 1;  // -1: a lane left to kirchhoffStress (unused lanes too)
     bool corotated = false, neoHookean = false;
-    for (int l = 0; l < kLanes; ++l) {
-      // unused lanes compute the identity's zero stress
-      const Mat3f& Fl = l < lanes ? F[ids[q0 + l]] : Mat3f::identity();
-      for (int e = 0; e < 9; ++e) f[e][l] = Fl.m[e / 3][e % 3];
-      if (l >= lanes) continue;
+    loadLanes(F, ids + q0, lanes, Mat3f::identity(), f);  // unused lanes: the identity's zero stress
+    for (int l = 0; l < lanes; ++l) {
       const MaterialParams& mat = materials[object[ids[q0 + l]]];
       if (mat.model == kFixedCorotated) {
         corotated = true;
