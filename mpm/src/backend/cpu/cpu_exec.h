@@ -28,6 +28,7 @@ inline int omp_get_num_threads() { return 1; }
 #include <type_traits>
 #include <vector>
 
+#include "backend/cpu/stencil_batch.h"
 #include "backend/cpu/stress_batch.h"
 #include "backend/sim_backend.h"
 
@@ -51,6 +52,18 @@ template <class F, class = void>
 struct BatchesStress : std::false_type {};
 template <class F>
 struct BatchesStress<F, std::void_t<decltype(F::kBatchedStress)>> : std::bool_constant<F::kBatchedStress> {};
+/// BatchedStencil: a transfer kernel takes each particle's stencil, BatchedStencil(geo,
+/// P.x[p]), from the caller (P2G: scatterStressed(p, stencil, tau, nodes), G2P: gatherAt(p,
+/// stencil, nodes)), so the CPU computes them for a run of particles at once
+/// (StencilRun). Stencil: that type, or a placeholder.
+template <class F, class = void>
+struct BatchesStencil : std::false_type {
+  using Stencil = char;
+};
+template <class F>
+struct BatchesStencil<F, std::void_t<typename F::BatchedStencil>> : std::true_type {
+  using Stencil = typename F::BatchedStencil;
+};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -135,6 +148,8 @@ struct CpuExec {
   static constexpr long long kMinParallelBlocks = 16;
   /// P2G computes the stresses of this many particles of a block at once (BatchesStress).
   static constexpr int kStressRun = 64;
+  /// G2P computes the stencils of this many particles of a block at once (BatchesStencil).
+  static constexpr int kStencilRun = 64;
 
   explicit CpuExec(int threadCount) { setThreads(threadCount); }
   /// Every loop reads `threads` when it starts: results do not depend on it (see above).
@@ -316,6 +331,8 @@ struct CpuExec {
         constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
         BlockTile tile;
         Mat3f tau[kStressRun];  // BatchesStress: the stresses of the next particles
+        static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value, "a batched stencil comes with the stress");
+        StencilRun<typename BatchesStencil<F>::Stencil, kStressRun> st;  // BatchesStencil: their stencils
         for (const auto& blocks : colour_) {
 #pragma omp for schedule(dynamic, 1)
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
@@ -326,7 +343,12 @@ struct CpuExec {
               for (uint32_t r = start_[j]; r < start_[j + 1];) {
                 const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
                 kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
-                for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                if constexpr (BatchesStencil<F>::value) {
+                  st.compute(f.geo, f.P.x, &order_[r], n);
+                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], st.at(q), tau[q], tile);
+                } else {
+                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                }
                 r += n;
               }
             } else {
@@ -348,15 +370,25 @@ struct CpuExec {
     if ((long long)occupied_.size() >= kMinParallelBlocks)
       {
         BlockTile tile;
+        StencilRun<typename BatchesStencil<F>::Stencil, kStencilRun> st;  // BatchesStencil: the next particles'
 #pragma omp for schedule(dynamic, 4)
         for (long long j = 0; j < (long long)occupied_.size(); ++j) {
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
           tile.load<UsesOldVelocity<F>::value>(grid);
-          for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) {
-            const StepCheck c = f(order_[r], tile);
+          const auto take = [&](const StepCheck& c) {
             maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
             firstBad = std::min(firstBad, c.firstBadParticle);
+          };
+          if constexpr (BatchesStencil<F>::value) {
+            for (uint32_t r = start_[j]; r < start_[j + 1];) {
+              const int n = (int)std::min<uint32_t>(kStencilRun, start_[j + 1] - r);
+              st.compute(f.geo, f.P.x, &order_[r], n);
+              for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.at(q), tile));
+              r += n;
+            }
+          } else {
+            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) take(f(order_[r], tile));
           }
         }
       }
