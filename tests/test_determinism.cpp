@@ -171,13 +171,13 @@ TEST(StencilRun, MatchesQuadraticStencil) {
   for (int i = 0; i < n; ++i) ids[i] = (uint32_t)i;
   std::shuffle(ids.begin() + 500, ids.end(), rng);  // the first half consecutive
   constexpr int kRun = 64;
-  StencilRun<QuadraticStencil, kRun> run;
+  StencilRun<kRun> run;
   for (int r = 0; r < n; r += kRun) {
     const int count = std::min(kRun, n - r) - (r == 0 ? 3 : 0);  // and one partial run
     run.compute(geo, x.data(), &ids[r], count);
     for (int q = 0; q < count; ++q) {
       const uint32_t i = ids[r + q];
-      const QuadraticStencil want(geo, x[i]), got = run.at(q);
+      const QuadraticStencil want(geo, x[i]), got = run.at<QuadraticStencil>(q);
       for (int a = 0; a < 3; ++a) {
         ASSERT_EQ(got.base[a], want.base[a]) << "particle " << i << " axis " << a;
         if (!std::isfinite(x[i][a])) continue;  // NaN fx for NaN x either way

@@ -148,7 +148,7 @@ struct CpuExec {
   static constexpr long long kMinParallelBlocks = 16;
   /// P2G computes the stresses of this many particles of a block at once (BatchesStress).
   static constexpr int kStressRun = 64;
-  /// G2P computes the stencils of this many particles of a block at once (BatchesStencil).
+  /// G2P (BatchesStencil) and binning compute the stencils of this many particles at once.
   static constexpr int kStencilRun = 64;
 
   explicit CpuExec(int threadCount) { setThreads(threadCount); }
@@ -257,11 +257,17 @@ struct CpuExec {
         std::vector<BlockRun>& runs = runs_[t];
         seen.clear();
         runs.clear();
+        StencilRun<kStencilRun> st;  // the stencil bases of the next particles, in lanes
+        uint32_t ids[kStencilRun];
         for (size_t i = lo; i < hi; ++i) {
-          // GridGeometry::particleBlock, or 0 for a stray (skipped by P2G): one stencilBase
-          int base[3];
-          Vec3f fx;
-          geo_.stencilBase(P.x[i], base, fx);
+          const int q = (int)((i - lo) % kStencilRun);
+          if (q == 0) {
+            const int count = (int)std::min<size_t>(kStencilRun, hi - i);
+            for (int c = 0; c < count; ++c) ids[c] = (uint32_t)(i + c);
+            st.compute(geo_, P.x, ids, count);
+          }
+          // GridGeometry::particleBlock, or 0 for a stray (skipped by P2G)
+          const int base[3] = {st.base[0][q], st.base[1][q], st.base[2][q]};
           const uint32_t key = geo_.baseInside(base) ? geo_.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits,
                                                                        base[2] >> kBlockBits)
                                                      : 0u;
@@ -332,7 +338,8 @@ struct CpuExec {
         BlockTile tile;
         Mat3f tau[kStressRun];  // BatchesStress: the stresses of the next particles
         static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value, "a batched stencil comes with the stress");
-        StencilRun<typename BatchesStencil<F>::Stencil, kStressRun> st;  // BatchesStencil: their stencils
+        using Stencil = typename BatchesStencil<F>::Stencil;
+        StencilRun<kStressRun> st;  // BatchesStencil: their stencils
         for (const auto& blocks : colour_) {
 #pragma omp for schedule(dynamic, 1)
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
@@ -345,7 +352,7 @@ struct CpuExec {
                 kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
                 if constexpr (BatchesStencil<F>::value) {
                   st.compute(f.geo, f.P.x, &order_[r], n);
-                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], st.at(q), tau[q], tile);
+                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
                 } else {
                   for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
                 }
@@ -370,7 +377,8 @@ struct CpuExec {
     if ((long long)occupied_.size() >= kMinParallelBlocks)
       {
         BlockTile tile;
-        StencilRun<typename BatchesStencil<F>::Stencil, kStencilRun> st;  // BatchesStencil: the next particles'
+        using Stencil = typename BatchesStencil<F>::Stencil;
+        StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
 #pragma omp for schedule(dynamic, 4)
         for (long long j = 0; j < (long long)occupied_.size(); ++j) {
           tile.setBlock(geo_, occupied_[j]);
@@ -384,7 +392,7 @@ struct CpuExec {
             for (uint32_t r = start_[j]; r < start_[j + 1];) {
               const int n = (int)std::min<uint32_t>(kStencilRun, start_[j + 1] - r);
               st.compute(f.geo, f.P.x, &order_[r], n);
-              for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.at(q), tile));
+              for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.template at<Stencil>(q), tile));
               r += n;
             }
           } else {

@@ -15,13 +15,14 @@
 namespace mpm {
 
 /// The stencils of up to kRun particles, one array per field (the lanes store whole
-/// vectors); at(q) is particle q's. Stencil: solvers/transfer.h's QuadraticStencil.
-template <class Stencil, int kRun>
+/// vectors); at<QuadraticStencil>(q) is particle q's (solvers/transfer.h).
+template <int kRun>
 struct StencilRun {
   alignas(64) int base[3][kRun];
   alignas(64) float fx[3][kRun];
   alignas(64) float w[3][3][kRun];
 
+  template <class Stencil>
   Stencil at(int q) const {
     Stencil s;
     for (int a = 0; a < 3; ++a) {
@@ -32,8 +33,8 @@ struct StencilRun {
     return s;
   }
 
-  /// The stencils of particles ids[0, n) at x[ids[q]], n <= kRun: at(q) = Stencil(geo,
-  /// x[ids[q]]).
+  /// The stencils of particles ids[0, n) at x[ids[q]], n <= kRun: at(q) =
+  /// QuadraticStencil(geo, x[ids[q]]).
   void compute(const GridGeometry& geo, const Vec3f* x, const uint32_t* ids, int n) {
 #ifdef MPM_STRESS_BATCH
     using simd::Floats;
@@ -63,12 +64,16 @@ struct StencilRun {
       }
     }
 #else
-    for (int q = 0; q < n; ++q) {
-      const Stencil s(geo, x[ids[q]]);
+    for (int q = 0; q < n; ++q) {  // QuadraticStencil's constructor
+      int b[3];
+      Vec3f f;
+      geo.stencilBase(x[ids[q]], b, f);
       for (int a = 0; a < 3; ++a) {
-        base[a][q] = s.base[a];
-        fx[a][q] = s.fx[a];
-        for (int k = 0; k < 3; ++k) w[a][k][q] = s.w[a][k];
+        float wa[3];
+        quadraticWeights(f[a], wa);
+        base[a][q] = b[a];
+        fx[a][q] = f[a];
+        for (int k = 0; k < 3; ++k) w[a][k][q] = wa[k];
       }
     }
 #endif
