@@ -144,8 +144,9 @@ INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solv
 // lanes). Its base must be QuadraticStencil's exactly (binning found the block from it:
 // another base is a tile index out of range), and so must fx, computed from it with
 // exact operations; the weights may differ by the rounding of a contracted multiply-add
-// (3e-8 on weights <= 0.75). Positions at and near half cells, strays (below, above, NaN,
-// infinite), consecutive ids (the vector loads) and not, and a partial last vector.
+// (3e-8 on weights <= 0.75). Positions at and near half cells (the grid's last ones too),
+// strays (below, above, NaN, infinite), consecutive ids (the vector loads) and not, and a
+// partial last vector.
 TEST(StencilRun, MatchesQuadraticStencil) {
   GridGeometry geo;
   geo.lower = Vec3f{-0.3f, -0.25f, -0.2f};
@@ -164,6 +165,11 @@ TEST(StencilRun, MatchesQuadraticStencil) {
         x[i][a] = i % 3 == 0 ? half : std::nextafter(half, i % 2 ? 1.f : -1.f);
       }
   }
+  for (int i = 10; i < 16; ++i) {  // the stencil's last node on the grid's last, or one beyond
+    const float edge = geo.lower[i % 3] + geo.dx * ((float)geo.cells[i % 3] - 0.5f);
+    x[i] = Vec3f{0.2f, 0.2f, 0.2f};
+    x[i][i % 3] = i < 13 ? edge : std::nextafter(edge, -1.f);
+  }
   x[7] = Vec3f{std::nanf(""), 0.1f, 0.1f};
   x[8] = Vec3f{0.1f, 1e30f, -1e30f};
   x[9] = Vec3f{0.1f, 0.1f, std::numeric_limits<float>::infinity()};
@@ -178,6 +184,8 @@ TEST(StencilRun, MatchesQuadraticStencil) {
     for (int q = 0; q < count; ++q) {
       const uint32_t i = ids[r + q];
       const QuadraticStencil want(geo, x[i]), got = run.at<QuadraticStencil>(q);
+      // and GridGeometry::stencilInside, which skips the rounding, agrees with the base
+      EXPECT_EQ(geo.stencilInside(x[i]), want.inside(geo)) << "particle " << i;
       for (int a = 0; a < 3; ++a) {
         ASSERT_EQ(got.base[a], want.base[a]) << "particle " << i << " axis " << a;
         if (!std::isfinite(x[i][a])) continue;  // NaN fx for NaN x either way
