@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <vector>
 
 #include <algorithm>
@@ -14,6 +15,7 @@
 
 #include "backend/cpu/cpu_exec.h"
 #include "mpm/scene.h"
+#include "solvers/transfer.h"
 #include "scenes/standard_scenes.h"
 #include "solver_cases.h"
 
@@ -136,6 +138,63 @@ TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solverParamName());
+
+
+// The CPU's P2G and G2P take the stencils of a run of particles from StencilRun (SIMD
+// lanes). Its base must be QuadraticStencil's exactly (binning found the block from it:
+// another base is a tile index out of range), and so must fx, computed from it with
+// exact operations; the weights may differ by the rounding of a contracted multiply-add
+// (3e-8 on weights <= 0.75). Positions at and near half cells (the grid's last ones too),
+// strays (below, above, NaN, infinite), consecutive ids (the vector loads) and not, and a
+// partial last vector.
+TEST(StencilRun, MatchesQuadraticStencil) {
+  GridGeometry geo;
+  geo.lower = Vec3f{-0.3f, -0.25f, -0.2f};
+  geo.dx = 0.05f;
+  geo.invDx = 1.f / geo.dx;
+  for (int a = 0; a < 3; ++a) geo.cells[a] = 24, geo.blocks[a] = 6;
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.4f, 1.0f);
+  const int n = 1000;
+  std::vector<Vec3f> x(n);
+  for (int i = 0; i < n; ++i) {
+    x[i] = Vec3f{u(rng), u(rng), u(rng)};
+    if (i % 5 == 0)  // on a half cell, or the float next to it
+      for (int a = 0; a < 3; ++a) {
+        const float half = geo.lower[a] + geo.dx * (0.5f + (float)(i % 17));
+        x[i][a] = i % 3 == 0 ? half : std::nextafter(half, i % 2 ? 1.f : -1.f);
+      }
+  }
+  for (int i = 10; i < 16; ++i) {  // the stencil's last node on the grid's last, or one beyond
+    const float edge = geo.lower[i % 3] + geo.dx * ((float)geo.cells[i % 3] - 0.5f);
+    x[i] = Vec3f{0.2f, 0.2f, 0.2f};
+    x[i][i % 3] = i < 13 ? edge : std::nextafter(edge, -1.f);
+  }
+  x[7] = Vec3f{std::nanf(""), 0.1f, 0.1f};
+  x[8] = Vec3f{0.1f, 1e30f, -1e30f};
+  x[9] = Vec3f{0.1f, 0.1f, std::numeric_limits<float>::infinity()};
+  std::vector<uint32_t> ids(n);
+  for (int i = 0; i < n; ++i) ids[i] = (uint32_t)i;
+  std::shuffle(ids.begin() + 500, ids.end(), rng);  // the first half consecutive
+  constexpr int kRun = 64;
+  StencilRun<kRun> run;
+  for (int r = 0; r < n; r += kRun) {
+    const int count = std::min(kRun, n - r) - (r == 0 ? 3 : 0);  // and one partial run
+    run.compute(geo, x.data(), &ids[r], count);
+    for (int q = 0; q < count; ++q) {
+      const uint32_t i = ids[r + q];
+      const QuadraticStencil want(geo, x[i]), got = run.at<QuadraticStencil>(q);
+      // and GridGeometry::stencilInside, which skips the rounding, agrees with the base
+      EXPECT_EQ(geo.stencilInside(x[i]), want.inside(geo)) << "particle " << i;
+      for (int a = 0; a < 3; ++a) {
+        ASSERT_EQ(got.base[a], want.base[a]) << "particle " << i << " axis " << a;
+        if (!std::isfinite(x[i][a])) continue;  // NaN fx for NaN x either way
+        EXPECT_EQ(got.fx[a], want.fx[a]) << "particle " << i << " axis " << a;
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(got.w[a][k], want.w[a][k], 3e-8f) << "particle " << i;
+      }
+    }
+  }
+}
 
 }  // namespace
 }  // namespace mpm

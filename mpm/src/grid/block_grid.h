@@ -106,12 +106,15 @@ struct GridGeometry {
       if (!(base[a] >= 0 && base[a] + 2 <= cells[a])) return false;
     return true;
   }
-  /// True if the particle's whole stencil lies on grid nodes.
+  /// True if the particle's whole stencil lies on grid nodes: baseInside(stencilBase(x))
+  /// without the rounding to a node, as t >= 0 <=> floor(t) >= 0 and t < cells - 1 <=>
+  /// floor(t) + 2 <= cells (a clamped or NaN t fails either way). Every G2P checks it.
   MPM_HD bool stencilInside(Vec3f x) const {
-    int base[3];
-    Vec3f fx;
-    stencilBase(x, base, fx);
-    return baseInside(base);
+    for (int a = 0; a < 3; ++a) {
+      const float t = fmaf(x[a] - lower[a], invDx, -0.5f);  // stencilBase's t, before its clamp
+      if (!(t >= 0.f && t < (float)(cells[a] - 1))) return false;
+    }
+    return true;
   }
 };
 
@@ -227,8 +230,10 @@ struct GridView {
 
 /// Quadratic B-spline weights for the three stencil nodes along one axis, given the
 /// particle's offset fx in [0.5, 1.5) from the stencil base.
-MPM_HD void quadraticWeights(float fx, float w[3]) {
-  const float a = 1.5f - fx, b = fx - 1.f, c = fx - 0.5f;
+/// (T: float, or a vector of floats on the CPU, backend/cpu/stencil_batch.h.)
+template <class T>
+MPM_HD void quadraticWeights(T fx, T w[3]) {
+  const T a = 1.5f - fx, b = fx - 1.f, c = fx - 0.5f;
   w[0] = 0.5f * a * a;
   w[1] = 0.75f - b * b;
   w[2] = 0.5f * c * c;

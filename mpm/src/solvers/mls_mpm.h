@@ -27,13 +27,14 @@ struct MlsMpm {
     /// P.F[p]): the CPU computes it for many particles at once (backend/cpu/stress_batch.h)
     /// and hands it to scatterStressed; the device calls operator().
     static constexpr bool kBatchedStress = true;
+    /// Likewise its stencil, QuadraticStencil(geo, P.x[p]) (backend/cpu/stencil_batch.h).
+    using BatchedStencil = QuadraticStencil;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-      scatterStressed(p, kirchhoffStress(materials[P.object[p]], P.F[p]), nodes);
+      scatterStressed(p, QuadraticStencil(geo, P.x[p]), kirchhoffStress(materials[P.object[p]], P.F[p]), nodes);
     }
     template <class Nodes>
-    MPM_HD void scatterStressed(uint32_t p, const Mat3f& tau, Nodes& nodes) const {
-      const QuadraticStencil st(geo, P.x[p]);
+    MPM_HD void scatterStressed(uint32_t p, const QuadraticStencil& st, const Mat3f& tau, Nodes& nodes) const {
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];
@@ -55,9 +56,15 @@ struct MlsMpm {
     const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
     int nParts = 0;
     bool cuts = false;  ///< some particle may be cut (withParts)
+    /// The CPU computes the stencils QuadraticStencil(geo, P.x[p]) of many particles at
+    /// once and hands each to gatherAt.
+    using BatchedStencil = QuadraticStencil;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      const QuadraticStencil st(geo, P.x[p]);
+      return gatherAt(p, QuadraticStencil(geo, P.x[p]), nodes);
+    }
+    template <class Nodes>
+    MPM_HD StepCheck gatherAt(uint32_t p, const QuadraticStencil& st, const Nodes& nodes) const {
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;

@@ -20,6 +20,8 @@ struct QuadraticStencil {
     geo.stencilBase(x, base, fx);
     for (int a = 0; a < 3; ++a) quadraticWeights(fx[a], w[a]);
   }
+  /// Filled by the CPU for many particles at once (backend/cpu/stencil_batch.h).
+  QuadraticStencil() = default;
   /// The whole stencil lies on grid nodes (GridGeometry::stencilInside of the same x).
   MPM_HD bool inside(const GridGeometry& geo) const { return geo.baseInside(base); }
   /// d w / d x along axis a for the three nodes [1/m] (standard MPM's force and L).

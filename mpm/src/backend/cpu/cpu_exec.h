@@ -28,6 +28,7 @@ inline int omp_get_num_threads() { return 1; }
 #include <type_traits>
 #include <vector>
 
+#include "backend/cpu/stencil_batch.h"
 #include "backend/cpu/stress_batch.h"
 #include "backend/sim_backend.h"
 
@@ -57,6 +58,18 @@ template <class F, class = void>
 struct BatchesProjection : std::false_type {};
 template <class F>
 struct BatchesProjection<F, std::void_t<decltype(F::kBatchedProjection)>> : std::bool_constant<F::kBatchedProjection> {};
+/// BatchedStencil: a transfer kernel takes each particle's stencil, BatchedStencil(geo,
+/// P.x[p]), from the caller (P2G: scatterStressed(p, stencil, tau, nodes), G2P: gatherAt(p,
+/// stencil, nodes)), so the CPU computes them for a run of particles at once
+/// (StencilRun). Stencil: that type, or a placeholder.
+template <class F, class = void>
+struct BatchesStencil : std::false_type {
+  using Stencil = char;
+};
+template <class F>
+struct BatchesStencil<F, std::void_t<typename F::BatchedStencil>> : std::true_type {
+  using Stencil = typename F::BatchedStencil;
+};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -141,6 +154,8 @@ struct CpuExec {
   static constexpr long long kMinParallelBlocks = 16;
   /// P2G computes the stresses of this many particles of a block at once (BatchesStress).
   static constexpr int kStressRun = 64;
+  /// G2P (BatchesStencil) and binning compute the stencils of this many particles at once.
+  static constexpr int kStencilRun = 64;
 
   explicit CpuExec(int threadCount) { setThreads(threadCount); }
   /// Every loop reads `threads` when it starts: results do not depend on it (see above).
@@ -248,11 +263,17 @@ struct CpuExec {
         std::vector<BlockRun>& runs = runs_[t];
         seen.clear();
         runs.clear();
+        StencilRun<kStencilRun> st;  // the stencil bases of the next particles, in lanes
+        uint32_t ids[kStencilRun];
         for (size_t i = lo; i < hi; ++i) {
-          // GridGeometry::particleBlock, or 0 for a stray (skipped by P2G): one stencilBase
-          int base[3];
-          Vec3f fx;
-          geo_.stencilBase(P.x[i], base, fx);
+          const int q = (int)((i - lo) % kStencilRun);
+          if (q == 0) {
+            const int count = (int)std::min<size_t>(kStencilRun, hi - i);
+            for (int c = 0; c < count; ++c) ids[c] = (uint32_t)(i + c);
+            st.compute(geo_, P.x, ids, count);
+          }
+          // GridGeometry::particleBlock, or 0 for a stray (skipped by P2G)
+          const int base[3] = {st.base[0][q], st.base[1][q], st.base[2][q]};
           const uint32_t key = geo_.baseInside(base) ? geo_.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits,
                                                                        base[2] >> kBlockBits)
                                                      : 0u;
@@ -322,6 +343,9 @@ struct CpuExec {
         constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
         BlockTile tile;
         Mat3f tau[kStressRun];  // BatchesStress / BatchesProjection: the next particles' tau or C_c
+        static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value, "a batched stencil comes with the stress");
+        using Stencil = typename BatchesStencil<F>::Stencil;
+        StencilRun<kStressRun> st;  // BatchesStencil: their stencils
         for (const auto& blocks : colour_) {
 #pragma omp for schedule(dynamic, 1)
           for (long long b = 0; b < (long long)blocks.size(); ++b) {
@@ -333,7 +357,13 @@ struct CpuExec {
                 const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
                 if constexpr (BatchesStress<F>::value) {
                   kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
-                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                  if constexpr (BatchesStencil<F>::value) {
+                    st.compute(f.geo, f.P.x, &order_[r], n);
+                    for (int q = 0; q < n; ++q)
+                      f.scatterStressed(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
+                  } else {
+                    for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                  }
                 } else {
                   pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
                   for (int q = 0; q < n; ++q) f.scatterProjected(order_[r + q], tau[q], tile);
@@ -359,15 +389,26 @@ struct CpuExec {
     if ((long long)occupied_.size() >= kMinParallelBlocks)
       {
         BlockTile tile;
+        using Stencil = typename BatchesStencil<F>::Stencil;
+        StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
 #pragma omp for schedule(dynamic, 4)
         for (long long j = 0; j < (long long)occupied_.size(); ++j) {
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
           tile.load<UsesOldVelocity<F>::value>(grid);
-          for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) {
-            const StepCheck c = f(order_[r], tile);
+          const auto take = [&](const StepCheck& c) {
             maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
             firstBad = std::min(firstBad, c.firstBadParticle);
+          };
+          if constexpr (BatchesStencil<F>::value) {
+            for (uint32_t r = start_[j]; r < start_[j + 1];) {
+              const int n = (int)std::min<uint32_t>(kStencilRun, start_[j + 1] - r);
+              st.compute(f.geo, f.P.x, &order_[r], n);
+              for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.template at<Stencil>(q), tile));
+              r += n;
+            }
+          } else {
+            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) take(f(order_[r], tile));
           }
         }
       }

@@ -1,0 +1,116 @@
+#pragma once
+// The quadratic stencils of many particles at once, for the CPU's P2G and G2P: kLanes
+// particles per SIMD vector, the same arithmetic as GridGeometry::stencilBase and
+// quadraticWeights (the same fused multiply-add, clamps and floor, so the same base as
+// binning found: a tile index depends on it), lane by lane. Host only (GCC / Clang vector
+// extensions); elsewhere every particle builds its own stencil.
+//
+// Why: per particle the stencil is a chain of scalar conversions and roundings, built
+// twice per substep (P2G and G2P).
+#include <cstdint>
+
+#include "backend/cpu/stress_batch.h"
+#include "grid/block_grid.h"
+
+namespace mpm {
+
+/// The stencils of up to kRun particles, one array per field (the lanes store whole
+/// vectors); at<QuadraticStencil>(q) is particle q's (solvers/transfer.h).
+template <int kRun>
+struct StencilRun {
+  alignas(64) int base[3][kRun];
+  alignas(64) float fx[3][kRun];
+  alignas(64) float w[3][3][kRun];
+
+  template <class Stencil>
+  Stencil at(int q) const {
+    Stencil s;
+    for (int a = 0; a < 3; ++a) {
+      s.base[a] = base[a][q];
+      s.fx[a] = fx[a][q];
+      for (int k = 0; k < 3; ++k) s.w[a][k] = w[a][k][q];
+    }
+    return s;
+  }
+
+  /// The stencils of particles ids[0, n) at x[ids[q]], n <= kRun: at(q) =
+  /// QuadraticStencil(geo, x[ids[q]]).
+  void compute(const GridGeometry& geo, const Vec3f* x, const uint32_t* ids, int n) {
+#ifdef MPM_STRESS_BATCH
+    using simd::Floats;
+    using simd::kLanes;
+    static_assert(kRun % kLanes == 0, "whole vectors");
+    typedef int Ints __attribute__((vector_size(4 * kLanes)));
+    for (int q0 = 0; q0 < n; q0 += kLanes) {
+      const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
+      Floats xa[3];
+      loadPositions(x, ids + q0, lanes, xa);
+      for (int a = 0; a < 3; ++a) {
+        const Floats d = xa[a] - geo.lower[a];
+        Floats t;
+        for (int l = 0; l < kLanes; ++l) t[l] = __builtin_fmaf(d[l], geo.invDx, -0.5f);  // one vfmadd
+        const float hi = (float)geo.cells[a] + 4.f;
+        t = t > -4.f ? t : simd::splat(-4.f);  // NaN takes -4, as in stencilBase
+        t = t < hi ? t : simd::splat(hi);
+        // floor: the truncation, one less where it rounded up (t < 0); exact, t being small
+        Ints b = __builtin_convertvector(t, Ints);
+        b += (Ints)(__builtin_convertvector(b, Floats) > t);
+        const Floats f = (t - __builtin_convertvector(b, Floats)) + 0.5f;
+        Floats wa[3];
+        quadraticWeights(f, wa);
+        __builtin_memcpy(&base[a][q0], &b, sizeof(b));
+        __builtin_memcpy(&fx[a][q0], &f, sizeof(f));
+        for (int k = 0; k < 3; ++k) __builtin_memcpy(&w[a][k][q0], &wa[k], sizeof(Floats));
+      }
+    }
+#else
+    for (int q = 0; q < n; ++q) {  // QuadraticStencil's constructor
+      int b[3];
+      Vec3f f;
+      geo.stencilBase(x[ids[q]], b, f);
+      for (int a = 0; a < 3; ++a) {
+        float wa[3];
+        quadraticWeights(f[a], wa);
+        base[a][q] = b[a];
+        fx[a][q] = f[a];
+        for (int k = 0; k < 3; ++k) w[a][k][q] = wa[k];
+      }
+    }
+#endif
+  }
+
+ private:
+#ifdef MPM_STRESS_BATCH
+  /// xa[a][l] = x[ids[l]][a]; lanes from `lanes` on repeat the first. Particles come
+  /// sorted by block (reordered every frame), so ids are mostly consecutive: then three
+  /// vector loads and shuffles instead of one insert per coordinate.
+  static void loadPositions(const Vec3f* x, const uint32_t* ids, int lanes, simd::Floats xa[3]) {
+    using simd::kLanes;
+#if defined(__GNUC__) && !defined(__clang__)
+    typedef int Ints __attribute__((vector_size(4 * kLanes)));
+    if (lanes == kLanes && ids[kLanes - 1] - ids[0] == (uint32_t)(kLanes - 1)) {
+      simd::Floats v[3];
+      __builtin_memcpy(v, &x[ids[0]], sizeof(v));
+      // lane l of axis a is float 3 l + a of the 3 kLanes: from v[0], v[1] or v[2]
+      Ints lo, hi;
+      for (int a = 0; a < 3; ++a) {
+        for (int l = 0; l < kLanes; ++l) {
+          const int e = 3 * l + a;  // 0 .. 3 kLanes - 1
+          lo[l] = e < 2 * kLanes ? e : 0;
+          hi[l] = e < 2 * kLanes ? l : e - 2 * kLanes + kLanes;
+        }
+        const simd::Floats first = __builtin_shuffle(v[0], v[1], lo);
+        xa[a] = __builtin_shuffle(first, v[2], hi);
+      }
+      return;
+    }
+#endif
+    for (int l = 0; l < kLanes; ++l) {
+      const Vec3f xl = x[ids[l < lanes ? l : 0]];
+      for (int a = 0; a < 3; ++a) xa[a][l] = xl[a];
+    }
+  }
+#endif
+};
+
+}  // namespace mpm
