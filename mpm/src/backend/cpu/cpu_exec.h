@@ -1,5 +1,5 @@
 #pragma once
-// CPU execution backend: OpenMP loops over host memory.
+// CPU execution backend: loops over host memory on a team of threads (thread_team.h).
 //
 // Transfers by grid block: particles are binned by the 4^3 block holding their stencil
 // base, so a block's particles reach only a 6^3 tile of nodes (the block and its +1
@@ -11,16 +11,13 @@
 // contributions in a fixed order whatever the thread count, which makes the CPU path
 // bit-for-bit deterministic.
 #if defined(_OPENMP)
-#include <omp.h>
-#else
-// Built without OpenMP (MPM_WITH_OPENMP=OFF, the ThreadSanitizer build): the pragmas are
-// ignored and every loop runs on the calling thread.
-inline int omp_get_max_threads() { return 1; }
-inline int omp_get_thread_num() { return 0; }
-inline int omp_get_num_threads() { return 1; }
+#include <omp.h>  // omp_get_max_threads: OMP_NUM_THREADS as the default thread count
 #endif
 
 #include <algorithm>
+#include <atomic>
+#include <memory>
+#include <thread>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -30,6 +27,7 @@ inline int omp_get_num_threads() { return 1; }
 
 #include "backend/cpu/stencil_batch.h"
 #include "backend/cpu/stress_batch.h"
+#include "backend/cpu/thread_team.h"
 #include "backend/sim_backend.h"
 
 namespace mpm {
@@ -159,7 +157,17 @@ struct CpuExec {
 
   explicit CpuExec(int threadCount) { setThreads(threadCount); }
   /// Every loop reads `threads` when it starts: results do not depend on it (see above).
-  void setThreads(int threadCount) { threads = threadCount > 0 ? threadCount : omp_get_max_threads(); }
+  void setThreads(int threadCount) { threads = threadCount > 0 ? threadCount : defaultThreads(); }
+  /// OMP_NUM_THREADS where OpenMP is linked (the convention users know), else the cores.
+  static int defaultThreads() {
+#if defined(_OPENMP)
+    return omp_get_max_threads();
+#else
+    return (int)std::max(1u, std::thread::hardware_concurrency());
+#endif
+  }
+  /// The workers of every loop below (thread_team.h: why not OpenMP's).
+  std::unique_ptr<ThreadTeam> team_ = std::make_unique<ThreadTeam>();
 
   template <class T>
   T* allocate(size_t n) {
@@ -205,18 +213,17 @@ struct CpuExec {
   /// the tasks touch together, for the kMinParallel test.
   template <class F>
   void forEachTask(int n, size_t work, const F& f) {
-#pragma omp parallel num_threads(std::min(threads, n)) if ((long long)work >= kMinParallel)
-    {
-      const int slot = omp_get_thread_num();
-#pragma omp for schedule(dynamic, 1)
-      for (int task = 0; task < n; ++task) f(task, slot);
-    }
+    std::atomic<int> next{0};
+    team_->run((long long)work >= kMinParallel ? std::min(threads, n) : 1, [&](int slot, int) {
+      for (int task; (task = next.fetch_add(1)) < n;) f(task, slot);
+    });
   }
 
   template <class F>
   void forEach(size_t n, const F& f) {
-#pragma omp parallel for num_threads(threads) schedule(static) if ((long long)n >= kMinParallel)
-    for (long long i = 0; i < (long long)n; ++i) f((size_t)i);
+    team_->run((long long)n >= kMinParallel ? threads : 1, [&](int t, int nt) {
+      for (size_t i = n * t / nt, end = n * (t + 1) / nt; i < end; ++i) f(i);
+    });
   }
 
   StepCheck takeCheck() {
@@ -246,7 +253,7 @@ struct CpuExec {
     /// (with a counting pass between two more, the 2-thread binning of 125k particles took
     /// 0.89 ms against 0.99 ms on one: with OMP_WAIT_POLICY=passive every barrier is a
     /// wake-up, about 0.1 ms on the 2-core VM).
-    void build(const ParticleView& P, int threads) {
+    void build(const ParticleView& P, ThreadTeam& pool, int threads) {
       const size_t n = P.count;
       order_.resize(n);
       const int team = (long long)n >= kMinParallel ? std::max(threads, 1) : 1;
@@ -254,9 +261,7 @@ struct CpuExec {
         firstSeen_.resize(team);
         runs_.resize(team);
       }
-#pragma omp parallel num_threads(team)
-      {
-        const int t = omp_get_thread_num(), nt = omp_get_num_threads();
+      pool.run(team, [&](int t, int nt) {
         const size_t lo = n * t / nt, hi = n * (t + 1) / nt;
         // blockCount_ (all zero between calls) first marks the blocks seen
         std::vector<uint32_t>& seen = firstSeen_[t];
@@ -286,9 +291,8 @@ struct CpuExec {
               __atomic_exchange_n(&blockCount_[key], 1u, __ATOMIC_RELAXED) == 0)
             seen.push_back(key);
         }
-#pragma omp barrier
-#pragma omp single
-        {
+        pool.barrier(nt);
+        if (t == 0) {
           occupied_.clear();
           for (int s = 0; s < nt; ++s) occupied_.insert(occupied_.end(), firstSeen_[s].begin(), firstSeen_[s].end());
           std::sort(occupied_.begin(), occupied_.end());
@@ -312,6 +316,7 @@ struct CpuExec {
           }
           start_[nOcc] = running;
         }
+        pool.barrier(nt);
         uint32_t* cursor = cursor_.data() + (size_t)t * occupied_.size();
         uint32_t i = (uint32_t)lo;
         for (const BlockRun& r : runs) {
@@ -319,7 +324,7 @@ struct CpuExec {
           for (uint32_t q = 0; q < r.count; ++q) order_[c + q] = i++;
           c += r.count;
         }
-      }
+      });
       for (uint32_t b : occupied_) blockCount_[b] = 0;
 
       activate();
@@ -334,21 +339,21 @@ struct CpuExec {
 
     /// P2G by coloured blocks, each through its own tile.
     template <class F>
-    void particleToGrid(const F& f, int threads) const {
+    void particleToGrid(const F& f, ThreadTeam& pool, int threads) const {
       const GridView grid = gridView();
-      // one team for all eight colours; the barrier at the end of each `omp for` keeps
-      // colours apart
-#pragma omp parallel num_threads(threads) if ((long long)occupied_.size() >= kMinParallelBlocks)
-      {
+      // one run for all eight colours; a barrier after each keeps colours apart
+      std::atomic<long long> next[8];
+      for (auto& c : next) c.store(0);
+      pool.run((long long)occupied_.size() >= kMinParallelBlocks ? threads : 1, [&](int, int nt) {
         constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
         BlockTile tile;
         Mat3f tau[kStressRun];  // BatchesStress / BatchesProjection: the next particles' tau or C_c
         static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value, "a batched stencil comes with the stress");
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStressRun> st;  // BatchesStencil: their stencils
-        for (const auto& blocks : colour_) {
-#pragma omp for schedule(dynamic, 1)
-          for (long long b = 0; b < (long long)blocks.size(); ++b) {
+        for (int colour = 0; colour < 8; ++colour) {
+          const auto& blocks = colour_[colour];
+          for (long long b; (b = next[colour].fetch_add(1)) < (long long)blocks.size();) {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
             tile.clear<kMx, kDmv>();
@@ -375,24 +380,25 @@ struct CpuExec {
             }
             tile.flush<kMx, kDmv>(grid);
           }
+          pool.barrier(nt);
         }
-      }
+      });
     }
 
     /// G2P by blocks (any order: reads only), each from a tile of grid velocities.
     template <class F>
-    StepCheck gridToParticle(const F& f, int threads) const {
+    StepCheck gridToParticle(const F& f, ThreadTeam& pool, int threads) const {
       const GridView grid = gridView();
-      float maxSpeed2 = 0.f;
-      uint32_t firstBad = 0xffffffffu;
-#pragma omp parallel num_threads(threads) reduction(max : maxSpeed2) reduction(min : firstBad) \
-    if ((long long)occupied_.size() >= kMinParallelBlocks)
-      {
+      const int nt = (long long)occupied_.size() >= kMinParallelBlocks ? threads : 1;
+      std::vector<StepCheck> checks((size_t)nt);  // per thread; max and min in any order
+      std::atomic<long long> next{0};
+      pool.run(nt, [&](int t, int) {
+        float maxSpeed2 = 0.f;
+        uint32_t firstBad = 0xffffffffu;
         BlockTile tile;
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
-#pragma omp for schedule(dynamic, 4)
-        for (long long j = 0; j < (long long)occupied_.size(); ++j) {
+        for (long long j; (j = next.fetch_add(1)) < (long long)occupied_.size();) {
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
           tile.load<UsesOldVelocity<F>::value>(grid);
@@ -411,8 +417,14 @@ struct CpuExec {
             for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) take(f(order_[r], tile));
           }
         }
+        checks[(size_t)t] = {maxSpeed2, firstBad};
+      });
+      StepCheck c{0.f, 0xffffffffu};
+      for (const StepCheck& k : checks) {
+        c.maxSpeed2 = std::max(c.maxSpeed2, k.maxSpeed2);
+        c.firstBadParticle = std::min(c.firstBadParticle, k.firstBadParticle);
       }
-      return {maxSpeed2, firstBad};
+      return c;
     }
 
     /// The parts near each active block, for the contact passes and G2P of this substep
@@ -478,18 +490,17 @@ struct CpuExec {
     /// (nothing but +0, which leaves a sum as it was). `out` is zeroed first; with no parts
     /// (none in reach) that is all.
     void contactPass(const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
-                     ContactSums* out, int pass, int threads) {
+                     ContactSums* out, int pass, ThreadTeam& pool, int threads) {
       for (int b = 0; b < nBodies; ++b) out[b] = ContactSums{};
       if (nParts == 0) return;
       if (!nearListed_) findNearParts(parts, nParts);
       const GridView grid = gridView();
       const size_t nActive = active_.size();
       blockSums_.resize(nearParts_.size());
-#pragma omp parallel for num_threads(threads) schedule(dynamic, 8) \
-    if ((long long)nActive >= kMinParallelBlocks)
-      for (long long slot = 0; slot < (long long)nActive; ++slot) {
+      std::atomic<long long> next{0};
+      const auto block = [&](long long slot) {
         const uint32_t begin = nearStart_[slot], end = nearStart_[slot + 1];
-        if (begin == end) continue;
+        if (begin == end) return;
         int bx, by, bz;
         geo_.blockCoords(active_[slot], bx, by, bz);
         const int o[3] = {bx << kBlockBits, by << kBlockBits, bz << kBlockBits};
@@ -514,7 +525,11 @@ struct CpuExec {
                             nParts, p, bodies, bodySums, pass);
           }
         }
-      }
+      };
+      pool.run((long long)nActive >= kMinParallelBlocks ? threads : 1, [&](int, int) {
+        for (long long s0; (s0 = next.fetch_add(8)) < (long long)nActive;)
+          for (long long slot = s0; slot < std::min<long long>(s0 + 8, (long long)nActive); ++slot) block(slot);
+      });
       for (size_t slot = 0; slot < nActive; ++slot)
         for (uint32_t k = nearStart_[slot]; k < nearStart_[slot + 1]; ++k) {
           const int b = parts[nearParts_[k].index].body;
@@ -653,18 +668,18 @@ struct CpuExec {
     }
   };
 
-  void bin(const ParticleView& P, Binning& b) { b.build(P, threads); }
+  void bin(const ParticleView& P, Binning& b) { b.build(P, *team_, threads); }
   template <class F>
-  void particleToGrid(const Binning& b, const F& f) { b.particleToGrid(f, threads); }
+  void particleToGrid(const Binning& b, const F& f) { b.particleToGrid(f, *team_, threads); }
   bool partsReach(const Binning& b, const PartView* parts, int nParts) const { return b.partsReach(parts, nParts); }
   void findNearParts(Binning& b, const PartView* parts, int nParts) { b.findNearParts(parts, nParts); }
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass) {
-    b.contactPass(parts, nParts, bodies, nBodies, out, pass, threads);
+    b.contactPass(parts, nParts, bodies, nBodies, out, pass, *team_, threads);
   }
   template <class F>
   void gridToParticle(const Binning& b, const F& f) {
-    const StepCheck c = b.gridToParticle(f, threads);
+    const StepCheck c = b.gridToParticle(f, *team_, threads);
     // the speed that matters for the next substep count is the latest one
     check_.maxSpeed2 = c.maxSpeed2;
     check_.firstBadParticle = std::min(check_.firstBadParticle, c.firstBadParticle);
