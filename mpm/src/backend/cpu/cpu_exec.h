@@ -59,7 +59,7 @@ struct BatchesProjection<F, std::void_t<decltype(F::kBatchedProjection)>> : std:
 /// BatchedStencil: a transfer kernel takes each particle's stencil, BatchedStencil(geo,
 /// P.x[p]), from the caller (P2G: scatterStressed(p, stencil, tau, nodes), G2P: gatherAt(p,
 /// stencil, nodes)), so the CPU computes them for a run of particles at once
-/// (StencilRun). Stencil: that type, or a placeholder.
+/// (StencilRun). Stencil: that type; char for kernels without one (never built then).
 template <class F, class = void>
 struct BatchesStencil : std::false_type {
   using Stencil = char;
