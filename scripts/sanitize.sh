@@ -85,14 +85,19 @@ ASAN_EXCLUDE+="|Package\\."                                        # installs an
 # crosses threads (SceneState, Validation), and the Bullet coupler stepping the scene from
 # inside Bullet's tick, errors included (BulletCouplingErrors, both world types). Built with
 # OpenMP off (MPM_WITH_OPENMP=OFF): libgomp is not instrumented, so TSan cannot see its
-# barriers and would report the parallel loops; without it the only threads are the caller
-# and the worker, and every report is about them. OMP_NUM_THREADS=1 as well, in case a
+# barriers and would report the parallel loops it still runs (SceneBatch); without it the
+# only threads are the caller, the worker and our thread team, and every report is about
+# them. OMP_NUM_THREADS=1 as well, in case a
 # library brings its own OpenMP. Embedding.SnippetCouplesAUsersBulletWorld (the same
 # coupler path) is left out: over 300 s under TSan. SceneBatch: its runner threads hand
 # scenes to their workers (the short cases; the 36-tick comparison took 28 s under TSan).
-TSAN_TARGETS=(test_scene_state test_validation test_bullet_coupling test_scene_batch)
+# ThreadTeam.BarrierSeparatesRounds: the CPU backend's own thread team (thread_team.h), its
+# job hand-over and barrier; not its fork tests (TSan dies in a child that starts threads
+# after a multi-threaded fork).
+TSAN_TARGETS=(test_scene_state test_validation test_bullet_coupling test_scene_batch test_determinism)
 TSAN_INCLUDE="^(SceneState|Validation|BulletCouplingErrors)\\."
 TSAN_INCLUDE+="|^SceneBatch\\.(SteppedAloneAfterwards|PerSceneSteps|BadInput)"
+TSAN_INCLUDE+="|^ThreadTeam\\.BarrierSeparatesRounds$"
 
 summary=()
 # run_tree NAME DIR SANITIZERS "CMAKE EXTRA" "TARGETS" INCLUDE_REGEX EXCLUDE_REGEX [ctest args]

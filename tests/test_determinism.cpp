@@ -7,13 +7,18 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
+#include <csignal>
 #include <limits>
 #include <vector>
 
 #include <algorithm>
 #include <random>
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include "backend/cpu/cpu_exec.h"
+#include "backend/cpu/thread_team.h"
 #include "mpm/scene.h"
 #include "solvers/transfer.h"
 #include "scenes/standard_scenes.h"
@@ -138,6 +143,98 @@ TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solverParamName());
+
+// The CPU backend's own threads (backend/cpu/thread_team.h). Every member of a run writes
+// its slot, waits at the barrier, then reads all the others': a barrier that let one member
+// through early reads a slot still holding the previous round's value. Runs of 2, 3 and 1
+// members in turn, so workers sit out some runs (they must still report back).
+TEST(ThreadTeam, BarrierSeparatesRounds) {
+  ThreadTeam team;
+  std::vector<int> slot(3, -1);
+  int wrong = 0, runs = 0;
+  for (int round = 0; round < 3000; ++round) {
+    const int nt = 1 + (round % 3 == 2 ? 0 : 1 + round % 3);  // 2, 3, 1, 2, 3, 1, ...
+    std::vector<int> seen(nt, 0);
+    team.run(nt, [&](int t, int n) {
+      slot[t] = round;
+      team.barrier(n);
+      for (int u = 0; u < n; ++u) seen[t] += slot[u] == round;
+      team.barrier(n);  // nobody writes the next round's slot before all have read
+    });
+    for (int t = 0; t < nt; ++t) wrong += seen[t] != nt;
+    ++runs;
+  }
+  EXPECT_EQ(wrong, 0) << "of " << runs << " runs";
+}
+
+// A process that forks after stepping on two threads (Python's multiprocessing does, for
+// data generation): the child has only the forking thread, so the team it inherited has no
+// workers. Before the child made a crew of its own, its first threaded loop waited for them
+// forever (here the alarm ends it after 60 s). The child's next frames must be the
+// parent's, bit for bit.
+TEST(ThreadTeam, ForkedChildStepsLikeItsParent) {
+  SceneSettings s = scenes::CressimBench::settings(Backend::Cpu, 2);
+  Scene scene(s);
+  const ParticleObjectId id = scene.addParticleObject(scenes::CressimBench::box(1.f));
+  for (int f = 0; f < 3; ++f) scene.step(scenes::CressimBench::kFrameDt);  // the team is working
+
+  int pipeFd[2];
+  ASSERT_EQ(pipe(pipeFd), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    alarm(60);
+    for (int f = 0; f < 3; ++f) scene.step(scenes::CressimBench::kFrameDt);
+    std::vector<Vec3f> x;
+    scene.readPositions(id, x);
+    const ssize_t bytes = (ssize_t)(x.size() * sizeof(Vec3f));
+    _exit(write(pipeFd[1], x.data(), (size_t)bytes) == bytes ? 0 : 3);
+  }
+  close(pipeFd[1]);
+  for (int f = 0; f < 3; ++f) scene.step(scenes::CressimBench::kFrameDt);
+  std::vector<Vec3f> parent, fromChild(8000);
+  scene.readPositions(id, parent);
+  ASSERT_EQ(parent.size(), fromChild.size());
+  size_t got = 0;
+  char* dst = reinterpret_cast<char*>(fromChild.data());
+  for (ssize_t r; got < fromChild.size() * sizeof(Vec3f) &&
+                  (r = read(pipeFd[0], dst + got, fromChild.size() * sizeof(Vec3f) - got)) > 0;)
+    got += (size_t)r;
+  close(pipeFd[0]);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_FALSE(WIFSIGNALED(status)) << "the child was killed by signal " << WTERMSIG(status)
+                                    << (WTERMSIG(status) == SIGALRM ? " (the alarm: it hung)" : "");
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  ASSERT_EQ(got, fromChild.size() * sizeof(Vec3f));
+  EXPECT_EQ(0, std::memcmp(parent.data(), fromChild.data(), got));
+}
+
+// Forked while a step runs (between advance and fetchResults): the step runs on a thread of
+// the parent's, so the child's scene is half stepped. Its fetchResults says so instead of
+// waiting forever for a thread it does not have; the parent fetches as usual.
+TEST(ThreadTeam, ForkedChildRefusesAStepInFlight) {
+  Scene scene(scenes::CressimBench::settings(Backend::Cpu, 2));
+  scene.addParticleObject(scenes::CressimBench::box(1.f));
+  scene.advance(scenes::CressimBench::kFrameDt);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    alarm(60);
+    try {
+      scene.fetchResults();
+    } catch (const Error& e) {
+      _exit(std::strstr(e.what(), "forked while a step was running") ? 0 : 2);
+    }
+    _exit(1);  // fetched a step it never ran
+  }
+  scene.fetchResults();
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: fetchResults returned, 2: another error";
+}
 
 
 // The CPU's P2G and G2P take the stencils of a run of particles from StencilRun (SIMD

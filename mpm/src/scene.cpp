@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "backend/sim_backend.h"
+#include "core/per_process.h"
 #include "core/validate.h"
 #include "scene/divergence.h"
 #include "scene/energy_account.h"
@@ -65,9 +66,9 @@ class SceneImpl {
   }
 
   ~SceneImpl() {
-    if (!stepping) return;
+    if (!stepping || worker.inherited()) return;
     try {
-      worker.wait();
+      worker.get().wait();
     } catch (...) {  // an error nobody fetched: the scene goes anyway
     }
   }
@@ -220,7 +221,7 @@ class SceneImpl {
     std::vector<ShapeState> before;
     if (energy)
       for (size_t i = 0; i < shapes.size(); ++i) before.push_back(shapes[i].state);
-    worker.submit([this, dt, n, energy, before = std::move(before)] {
+    worker.get().submit([this, dt, n, energy, before = std::move(before)] {
       // a failed advance is undone: what it changes is kept first (the particles' copy
       // costs a pass over their memory, see the backends' saveState)
       const Rollback rollback = keep();
@@ -353,7 +354,10 @@ class SceneImpl {
   StepReport fetch() {
     if (!stepping) return {};
     stepping = false;
-    return worker.wait();
+    if (worker.inherited())  // its step ran on a thread of the parent's: half done, here
+      throw Error("fetchResults: the process was forked while a step was running; the scene's state is "
+                  "undefined in the child (fork between fetchResults and the next advance)");
+    return worker.get().wait();
   }
 
   SceneSettings settings;
@@ -370,7 +374,7 @@ class SceneImpl {
   double time = 0.0;
   EnergyAccount account;
   bool stepping = false;  ///< an advance was submitted and its result not yet fetched
-  StepWorker worker;  // after everything its jobs touch, so it stops first
+  PerProcess<StepWorker> worker;  // after everything its jobs touch, so it stops first
 };
 
 Scene::Scene(const SceneSettings& settings) : impl_(std::make_unique<SceneImpl>(settings)) {}
