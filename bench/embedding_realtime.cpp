@@ -18,9 +18,11 @@
 
 #include <time.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iomanip>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -79,7 +81,19 @@ struct Row {
   double maxSubstep = 0;  ///< [ms] the policy's substep bound at the end
   double toolHeight = 0;  ///< [m] the box's centre at the end
   double stages = 0;      ///< [s] wall time in the solver's named stages (Scene::timings)
+  mpm::StageTimings split;  ///< those stages one by one
+  unsigned long long positionsHash = 0;  ///< FNV-1a of the tissue's positions at the end
 };
+
+/// The stages' wall time per substep [us]: sort / P2G / grid / contact / G2P.
+std::string stageSplit(const Row& r, const char* sep) {
+  const mpm::StageTimings& t = r.split;
+  const double per = 1e6 / (double)std::max(1LL, r.substeps);
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(0) << t.sort * per << sep << t.p2g * per << sep << t.gridUpdate * per << sep
+    << t.contact * per << sep << t.g2p * per;
+  return s.str();
+}
 
 double cpuSeconds() {
   timespec t{};
@@ -102,7 +116,7 @@ Row run(mpm::SolverType solverType, int threads, const Variant& variant, double 
   tissue.center = {0.f, 0.052f, 0.f};
   tissue.halfExtents = {0.15f, 0.05f, 0.15f};
   tissue.material = {mpm::MaterialModel::NeoHookeanDecoupled, 2e5f, 0.3f, 1000.f};
-  scene.addParticleObject(tissue);
+  const auto tissueId = scene.addParticleObject(tissue);
   mpm::bullet::Coupler coupler(world, scene);
   coupler.addRigidBody(ground);
   coupler.addRigidBody(tool);
@@ -125,8 +139,16 @@ Row run(mpm::SolverType solverType, int threads, const Variant& variant, double 
   const mpm::StageTimings st = scene.timings();
   r.substeps = st.substeps;
   r.stages = st.sort + st.p2g + st.gridUpdate + st.contact + st.g2p;
+  r.split = st;
   r.maxSubstep = 1e3 * (double)scene.maxSubstep();
   r.toolHeight = tool->getCenterOfMassPosition().y();
+  // the tissue's final positions, hashed: an optimisation meant to leave the physics as it
+  // was must print the same value (same build flags, any thread count)
+  std::vector<mpm::Vec3f> xs;
+  scene.readPositions(tissueId, xs);
+  r.positionsHash = 1469598103934665603ull;  // FNV-1a of the bytes
+  const unsigned char* bytes = reinterpret_cast<const unsigned char*>(xs.data());
+  for (size_t i = 0; i < xs.size() * sizeof(mpm::Vec3f); ++i) r.positionsHash = (r.positionsHash ^ bytes[i]) * 1099511628211ull;
   world->removeRigidBody(&toolBody);
   world->removeRigidBody(&groundBody);
   return r;
@@ -135,11 +157,11 @@ Row run(mpm::SolverType solverType, int threads, const Variant& variant, double 
 std::string csv(const std::vector<Row>& rows) {
   std::ostringstream s;
   s << "solver,variant,threads,simulated_s,wall_s,cpu_s,realtime_wall,realtime_cpu,substeps,substeps_per_s,max_substep_ms,"
-       "tool_height_m,stages_s\n";
+       "tool_height_m,stages_s,sort_us,p2g_us,grid_us,contact_us,g2p_us\n";
   for (const Row& r : rows)
     s << r.solver << ',' << r.variant << ',' << r.threads << ',' << r.simulated << ',' << r.wall << ',' << r.cpu << ','
       << r.simulated / r.wall << ',' << r.simulated / r.cpu << ',' << r.substeps << ',' << r.substeps / r.simulated
-      << ',' << r.maxSubstep << ',' << r.toolHeight << ',' << r.stages << '\n';
+      << ',' << r.maxSubstep << ',' << r.toolHeight << ',' << r.stages << ',' << stageSplit(r, ",") << '\n';
   return s.str();
 }
 
@@ -155,16 +177,17 @@ std::string markdown(const RunInfo& info, const Options& opt, const std::vector<
        "19); `everyN` advances the tissue once every N ticks (Coupler::setTissueInterval). Real time = "
        "simulated s / wall s (CPU: / process CPU s, all threads); ms per "
        "substep = wall / substeps (PB-MPM: a substep is its iterations); in stages = the share of the wall time in "
-       "the solver's named stages (the rest: Bullet, the coupling, the scene's per-advance work). The box "
+       "the solver's named stages (the rest: Bullet, the coupling, the scene's per-advance work), and those "
+       "stages per substep in us (Scene::timings: sort / P2G / grid update / contact / G2P). The box "
        "rests on the slab at 0.132 m.\n\n";
   s << "| solver | variant | threads | wall [s] | CPU [s] | real time (wall) | real time (CPU) | substeps | substeps / "
-       "simulated s | ms per substep | in stages | substep bound [ms] | box height [m] |\n";
-  s << "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+       "simulated s | ms per substep | in stages | stages [us / substep] | substep bound [ms] | box height [m] |\n";
+  s << "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (const Row& r : rows)
     s << "| " << r.solver << " | " << r.variant << " | " << r.threads << " | " << num(r.wall, 2) << " | " << num(r.cpu, 2) << " | "
       << num(r.simulated / r.wall, 2) << "x | " << num(r.simulated / r.cpu, 2) << "x | " << r.substeps << " | "
       << num(r.substeps / r.simulated, 0) << " | " << num(1e3 * r.wall / (double)r.substeps, 3) << " | "
-      << num(100 * r.stages / r.wall, 0) << " % | " << num(r.maxSubstep, 3) << " | " << num(r.toolHeight, 4)
+      << num(100 * r.stages / r.wall, 0) << " % | " << stageSplit(r, " / ") << " | " << num(r.maxSubstep, 3) << " | " << num(r.toolHeight, 4)
       << " |\n";
   return s.str();
 }
@@ -197,9 +220,9 @@ int main(int argc, char** argv) {
         rows.push_back(run(solverTypes().at(name), threads, variant, opt.seconds));
         const Row& r = rows.back();
         std::printf("%-12s %-14s %d thread(s): %.2f s simulated in %.2f s wall (%.2fx real time), %.2f s CPU "
-                    "(%.2fx), %lld substeps, box at %.4f m\n",
+                    "(%.2fx), %lld substeps, box at %.4f m; us per substep in sort / P2G / grid / contact / G2P: %s; positions hash %016llx\n",
                     r.solver.c_str(), r.variant.c_str(), r.threads, r.simulated, r.wall, r.simulated / r.wall, r.cpu,
-                    r.simulated / r.cpu, r.substeps, r.toolHeight);
+                    r.simulated / r.cpu, r.substeps, r.toolHeight, stageSplit(r, " / ").c_str(), r.positionsHash);
         std::fflush(stdout);
         writeResultFiles(opt.out, {{".md", markdown(info, opt, rows)}, {".csv", csv(rows)}});
       }

@@ -261,6 +261,52 @@ ParticleObjectDesc softBlock() {
 // 0.147 m/s with cfl 0.6 (MLS-MPM's default is 0.55), whose 0.5-1 s average read 20.17 N
 // (+2.8 %: the box's own momentum change, 0.138 m/s); at 1 s it moves at 0.010 and
 // 0.009 m/s.
+// contactNodePart skips looking from a node's material when the node's own distance is
+// far beyond the contact threshold, on the premise that for the parts it does this for
+// (PartView::lipschitzDistance) the phi it would decide by, phiNode or phiSide = phiBar +
+// nBar . (x - xbar) where the node and its material see opposite sides, is at least
+// phiNode - 2 |x - xbar| (less the kernel's rounding slack). Checked on each such part,
+// turned and placed off the origin, for random nodes and materials up to 2 cells apart.
+TEST(ShapeContact, EarlyOutBoundHoldsForEveryLipschitzPart) {
+  const float s = std::sin(0.5f * 0.6f), c = std::cos(0.5f * 0.6f);
+  const Quat turn{c, 0.48f * s, 0.6f * s, 0.64f * s};  // about (0.48, 0.6, 0.64)
+  std::vector<ShapeDesc> shapes;
+  for (GeometryType t : {GeometryType::Plane, GeometryType::Box, GeometryType::Sphere, GeometryType::Capsule,
+                         GeometryType::Cylinder}) {
+    ShapeDesc d;
+    d.parts = {Geometry{}};
+    d.parts[0].type = t;
+    d.parts[0].halfExtents = {0.05f, 0.02f, 0.08f};
+    d.parts[0].radius = 0.03f;
+    d.parts[0].halfHeight = 0.06f;
+    d.pose.position = {0.01f, 0.12f, -0.02f};
+    d.pose.rotation = turn;
+    shapes.push_back(d);
+  }
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> u(-0.25f, 0.25f), off(-0.04f, 0.04f);
+  int checked = 0;
+  for (const ShapeDesc& d : shapes) {
+    const PartView part = placedPart(d, Vec3f{0.f, 0.1f, 0.f});
+    ASSERT_TRUE(part.lipschitzDistance()) << "geometry " << (int)d.parts[0].type;
+    float worst = -1e30f;  // largest (phiNode - 2 |x - xbar|) - phi, to be <= slack
+    for (int t = 0; t < 20000; ++t) {
+      const Vec3f x{u(rng), 0.1f + u(rng), u(rng)}, xbar = x + Vec3f{off(rng), off(rng), off(rng)};
+      Vec3f n, nBar;
+      const float phiNode = part.distance(x, n), phiBar = part.distance(xbar, nBar);
+      const float phiSide = phiBar + dot(nBar, x - xbar);
+      const float phi = dot(n, nBar) < 0.f ? std::fmin(phiSide, phiNode) : phiNode;
+      const float away = norm(x - xbar);
+      const float slack = 1e-5f * (std::fabs(x.x) + std::fabs(x.y) + std::fabs(x.z) + std::fabs(phiNode) + away);
+      worst = std::fmax(worst, (phiNode - 2.f * away) - phi - slack);
+      ++checked;
+    }
+    std::printf("geometry %d: largest (phiNode - 2 |x - xbar|) - phi - slack %.3g m\n", (int)d.parts[0].type, worst);
+    EXPECT_LE(worst, 0.f) << "geometry " << (int)d.parts[0].type;
+  }
+  EXPECT_EQ(checked, 5 * 20000);
+}
+
 TEST(ShapeContact, RestingBoxIsHeldByItsWeight) {
   Scene scene(contactScene());
   const ParticleObjectId tissue = scene.addParticleObject(softBlock());

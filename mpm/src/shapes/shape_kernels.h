@@ -116,6 +116,13 @@ struct PartView {
     return true;
   }
 
+  /// Whether distance() is a true Euclidean signed distance, so it changes by no more than
+  /// the point moves (|phi(a) - phi(b)| <= |a - b|): the analytic solids. Not sampled
+  /// grids (a mesh's trilinear samples), blades or arcs with their kNoSurface regions.
+  MPM_HD bool lipschitzDistance() const {
+    return type == kPartPlane || type == kPartSphere || type == kPartCapsule || type == kPartCylinder ||
+           type == kPartBox || type == kPartTip;
+  }
   /// Signed distance [m] and outward unit normal (world) at world point x.
   MPM_HD float distance(Vec3f x, Vec3f& n) const {
     const Vec3f p = transpose(rotation) * (x - position);
@@ -351,6 +358,18 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
   }
   Vec3f n, nBar;
   const float phiNode = part.distance(x, n);
+  const float reach = (b.mode == kContactBonded ? kGluedReach : kRestingReach) * touchingCell;
+  const float threshold = fmaxf(fmaxf(b.band, part.band), reach);
+  if (part.lipschitzDistance()) {
+    // Most nodes a part's bounds reach are far from it. The phi below is phiNode or
+    // phiSide >= phiBar - |x - xbar| >= phiNode - 2 |x - xbar| (a Euclidean distance moves
+    // no faster than its point), so a node that far beyond the threshold is out of contact
+    // without looking from its material (a second distance, half of this function's time).
+    // The slack covers the rounding of the distances.
+    const float away = norm(x - xbar);
+    const float slack = 1e-5f * (fabsf(x.x) + fabsf(x.y) + fabsf(x.z) + fabsf(phiNode) + away + threshold);
+    if (phiNode - 2.f * away >= threshold + slack) return false;
+  }
   const float phiBar = part.distance(xbar, nBar);
   const float phiSide = phiBar + dot(nBar, x - xbar);
   const bool otherSide = dot(n, nBar) < 0.f;
@@ -365,8 +384,7 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
     phi = phiSide < phiNode ? phiSide : phiNode;
     n = nBar;
   }
-  const float reach = (b.mode == kContactBonded ? kGluedReach : kRestingReach) * touchingCell;
-  if (phi >= fmaxf(fmaxf(b.band, part.band), reach)) return false;
+  if (phi >= threshold) return false;
   // The node meets the body at c, the surface point along the contact normal: the rigid
   // velocity and the lever of the momentum exchanged are taken there, not at the node. A
   // round part's normals pass through its axis, so frictionless contact cannot turn it about

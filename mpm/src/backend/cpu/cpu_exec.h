@@ -474,6 +474,9 @@ struct CpuExec {
       nearStart_.assign(nActive + 1, 0u);
       for (const NearPair& q : nearPairs_) ++nearStart_[q.slot + 1];
       for (size_t slot = 0; slot < nActive; ++slot) nearStart_[slot + 1] += nearStart_[slot];
+      listed_.clear();
+      for (size_t slot = 0; slot < nActive; ++slot)
+        if (nearStart_[slot + 1] > nearStart_[slot]) listed_.push_back((uint32_t)slot);
       nearParts_.resize(nearPairs_.size());
       cursor_.assign(nearStart_.begin(), nearStart_.end() - 1);
       for (const NearPair& q : nearPairs_)
@@ -526,9 +529,12 @@ struct CpuExec {
           }
         }
       };
-      pool.run((long long)nActive >= kMinParallelBlocks ? threads : 1, [&](int, int) {
-        for (long long s0; (s0 = next.fetch_add(8)) < (long long)nActive;)
-          for (long long slot = s0; slot < std::min<long long>(s0 + 8, (long long)nActive); ++slot) block(slot);
+      // the blocks with parts near, one at a time: they hold all the work, and in a small
+      // scene they are few (a slab on a ground plane: its bottom layer), so handing out
+      // every block in chunks left one thread with most of them
+      const long long nListed = (long long)listed_.size();
+      pool.run(nListed >= kMinParallelBlocks ? threads : 1, [&](int, int) {
+        for (long long s; (s = next.fetch_add(1)) < nListed;) block(listed_[s]);
       });
       for (size_t slot = 0; slot < nActive; ++slot)
         for (uint32_t k = nearStart_[slot]; k < nearStart_[slot + 1]; ++k) {
@@ -579,7 +585,7 @@ struct CpuExec {
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
       return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
-             occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 +
+             occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
              nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums);
     }
 
@@ -636,6 +642,7 @@ struct CpuExec {
     };
     std::vector<NearPair> nearPairs_;   ///< (block, part) in part order
     std::vector<uint32_t> nearStart_;   ///< per active slot: its list in nearParts_
+    std::vector<uint32_t> listed_;      ///< the active slots whose list is not empty
     std::vector<NearPart> nearParts_;   ///< the lists, each in part order
     bool nearListed_ = false;           ///< the lists are this substep's
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
