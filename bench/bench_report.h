@@ -2,6 +2,7 @@
 // What every benchmark report shares: the machine and build it ran on, the command that
 // made it, number formatting and writing the result files.
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -10,8 +11,10 @@
 #include <string>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include "mpm/error.h"
+#include "mpm/math.h"
 
 namespace mpm::bench {
 
@@ -22,6 +25,17 @@ constexpr const char* kCompiler = "GCC " __VERSION__;
 #else
 constexpr const char* kCompiler = "unknown";
 #endif
+
+/// FNV-1a of the bytes of a run's final particle positions: an optimisation meant to leave
+/// the physics alone must print the same value as the build before it (same compiler flags:
+/// under -march=native the compiler's contraction to fused multiply-adds follows inlining,
+/// so compare x86-64 baseline builds, MPM_NATIVE_ARCH=OFF).
+inline uint64_t positionsHash(const std::vector<Vec3f>& x) {
+  uint64_t h = 1469598103934665603ull;
+  const unsigned char* bytes = reinterpret_cast<const unsigned char*>(x.data());
+  for (size_t i = 0; i < x.size() * sizeof(Vec3f); ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  return h;
+}
 
 inline std::string num(double v, int decimals) {
   if (std::isnan(v)) return "–";

@@ -82,7 +82,7 @@ struct Row {
   double toolHeight = 0;  ///< [m] the box's centre at the end
   double stages = 0;      ///< [s] wall time in the solver's named stages (Scene::timings)
   mpm::StageTimings split;  ///< those stages one by one
-  unsigned long long positionsHash = 0;  ///< FNV-1a of the tissue's positions at the end
+  uint64_t positionsHash = 0;  ///< of the tissue at the end (bench_report.h)
 };
 
 /// The stages' wall time per substep [us]: sort / P2G / grid / contact / G2P.
@@ -142,13 +142,9 @@ Row run(mpm::SolverType solverType, int threads, const Variant& variant, double 
   r.split = st;
   r.maxSubstep = 1e3 * (double)scene.maxSubstep();
   r.toolHeight = tool->getCenterOfMassPosition().y();
-  // the tissue's final positions, hashed: an optimisation meant to leave the physics as it
-  // was must print the same value (same build flags, any thread count)
-  std::vector<mpm::Vec3f> xs;
-  scene.readPositions(tissueId, xs);
-  r.positionsHash = 1469598103934665603ull;  // FNV-1a of the bytes
-  const unsigned char* bytes = reinterpret_cast<const unsigned char*>(xs.data());
-  for (size_t i = 0; i < xs.size() * sizeof(mpm::Vec3f); ++i) r.positionsHash = (r.positionsHash ^ bytes[i]) * 1099511628211ull;
+  std::vector<mpm::Vec3f> x;
+  scene.readPositions(tissueId, x);
+  r.positionsHash = positionsHash(x);
   world->removeRigidBody(&toolBody);
   world->removeRigidBody(&groundBody);
   return r;
@@ -222,7 +218,7 @@ int main(int argc, char** argv) {
         std::printf("%-12s %-14s %d thread(s): %.2f s simulated in %.2f s wall (%.2fx real time), %.2f s CPU "
                     "(%.2fx), %lld substeps, box at %.4f m; us per substep in sort / P2G / grid / contact / G2P: %s; positions hash %016llx\n",
                     r.solver.c_str(), r.variant.c_str(), r.threads, r.simulated, r.wall, r.simulated / r.wall, r.cpu,
-                    r.simulated / r.cpu, r.substeps, r.toolHeight, stageSplit(r, " / ").c_str(), r.positionsHash);
+                    r.simulated / r.cpu, r.substeps, r.toolHeight, stageSplit(r, " / ").c_str(), (unsigned long long)r.positionsHash);
         std::fflush(stdout);
         writeResultFiles(opt.out, {{".md", markdown(info, opt, rows)}, {".csv", csv(rows)}});
       }

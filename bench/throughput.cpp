@@ -264,6 +264,7 @@ struct RunSample {
   mpm::StageTimings stages; ///< the library's per-stage times over the timed frames
   double otherLoad = 0;     ///< CPU used by other processes during the timed frames [cores]
   bool abandoned = false;   ///< stopped early because the machine was busy; not a result
+  uint64_t positionsHash = 0;  ///< of the particles at the end (bench_report.h)
 };
 
 /// One table row: a solver at a half-size and a thread count, over all its repeats.
@@ -330,7 +331,7 @@ size_t particlesAt(float halfSize) {
 RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
                   long long& framesDone) {
   mpm::Scene scene(row.solver.settings(row.threads, row.variant, row.backend));
-  scene.addParticleObject(row.variant.box(row.halfSize));
+  const mpm::ParticleObjectId box = scene.addParticleObject(row.variant.box(row.halfSize));
   row.variant.addShapes(scene);
   row.variant.addSlicer(scene, row.halfSize);
   const SceneVariant::Spheres spheres = row.variant.addManyShapes(scene, row.halfSize);
@@ -367,6 +368,9 @@ RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
   // /proc/stat counts in clock ticks (10 ms): noise of about 0.02 s over the run
   s.otherLoad = std::max(0.0, (machineBusySeconds() - busy0 - s.cpuSeconds) / s.wallSeconds);
   s.stages = scene.timings();
+  std::vector<mpm::Vec3f> x;
+  scene.readPositions(box, x);
+  s.positionsHash = positionsHash(x);
   row.particles = scene.particleCount();
   row.memoryBytes = scene.memoryBytes();
   return s;
@@ -384,6 +388,8 @@ void runOnce(Row& row, const Options& opt, mpm::io::ProgressBar& progress,
     RunSample s = timeRun(row, last ? INFINITY : opt.maxOtherLoad, progress, framesDone);
     if (!s.abandoned && (last || !(s.otherLoad > opt.maxOtherLoad))) {
       row.samples.push_back(s);
+      std::fprintf(stderr, "\n%s %s, %zu particles, %d thread(s): positions hash %016llx\n", row.solver.name.c_str(),
+                   row.variant.name.c_str(), row.particles, row.threads, (unsigned long long)s.positionsHash);
       return;
     }
     row.redone++;
