@@ -517,6 +517,9 @@ struct CpuExec {
             blockSums_[run] = ContactSums{};
           }
           if (!nearParts_[k].mayTouch(lo, hi)) continue;
+          // the measuring pass asks only dynamic bodies (contactNodePart): a static ground
+          // under the whole slab is not walked node by node for nothing
+          if (pass == 0 && !bodies[parts[p].body].dynamic) continue;
           ContactSums& bodySums = blockSums_[run];
           for (int n = 0; n < kBlockNodes; ++n) {
             GridNode& node = grid.nodes[slot * kBlockNodes + n];
