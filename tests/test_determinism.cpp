@@ -293,5 +293,62 @@ TEST(StencilRun, MatchesQuadraticStencil) {
   }
 }
 
+// G2P's gather sums of a run of particles side by side in SIMD lanes (apicSumsBatch: four
+// particles' nodes per AVX-512 vector) against each particle's own apicSums from the same
+// stencil and tile. The same arithmetic lane by lane; they may differ only by the rounding
+// of a multiply-add the compiler contracts in one and not the other (sums of about 1 here,
+// so 1e-6). A wrong node or weight is off by about 0.1. Particles anywhere in the block, a
+// stray (its sums are not written), and runs of 64 and of 61 (a partial last vector).
+TEST(ApicSumsBatch, MatchesEachParticlesSums) {
+  GridGeometry geo;
+  geo.lower = Vec3f{-0.3f, -0.25f, -0.2f};
+  geo.dx = 0.05f;
+  geo.invDx = 1.f / geo.dx;
+  for (int a = 0; a < 3; ++a) geo.cells[a] = 24, geo.blocks[a] = 6;
+  constexpr int kEdge = kBlockSize + 2;
+  const int origin[3] = {4, 8, 12};  // block (1, 2, 3)
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<float> vel(-1.f, 1.f), inBlock(0.5f, 0.5f + (float)kBlockSize);
+  std::vector<Float4> mv(kEdge * kEdge * kEdge);
+  for (Float4& n : mv) n = Float4::make(0.5f + 0.5f * vel(rng), vel(rng), vel(rng), vel(rng));
+  struct TileNodes {
+    const Float4* mv;
+    const int* origin;
+    Float4 velocity4(int i, int j, int k) const {
+      return mv[((i - origin[0]) * kEdge + (j - origin[1])) * kEdge + (k - origin[2])];
+    }
+  } nodes{mv.data(), origin};
+  constexpr int kRun = 64;
+  std::vector<Vec3f> x(kRun);
+  std::vector<uint32_t> ids(kRun);
+  for (int count : {kRun, kRun - 3}) {
+    for (int q = 0; q < kRun; ++q) {
+      ids[q] = (uint32_t)q;
+      for (int a = 0; a < 3; ++a) x[q][a] = geo.lower[a] + geo.dx * ((float)origin[a] + inBlock(rng));
+    }
+    x[5] = Vec3f{-9.f, 0.f, 0.f};  // a stray
+    StencilRun<kRun> st;
+    st.compute(geo, x.data(), ids.data(), count);
+    ApicSums got[kRun];
+    const ApicSums unwritten{Float4::make(7.f, 7.f, 7.f, 7.f), {}, {}, {}};
+    for (ApicSums& g : got) g = unwritten;
+    apicSumsBatch<kEdge>(st, count, geo, mv.data(), origin, got);
+    for (int q = 0; q < count; ++q) {
+      const QuadraticStencil s = st.at<QuadraticStencil>(q);
+      if (!s.inside(geo)) {
+        EXPECT_EQ(q, 5);
+        continue;
+      }
+      const ApicSums want = apicSums(s, nodes);
+      const Float4* w[4] = {&want.v, &want.bi, &want.bj, &want.bk};
+      const Float4* g[4] = {&got[q].v, &got[q].bi, &got[q].bj, &got[q].bk};
+      for (int f = 0; f < 4; ++f)
+        for (int c = 0; c < 4; ++c)
+          EXPECT_NEAR((*g[f])[c], (*w[f])[c], 1e-6f) << "run of " << count << ", particle " << q << ", sum " << f
+                                                      << ", lane " << c;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace mpm

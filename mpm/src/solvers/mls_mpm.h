@@ -57,14 +57,23 @@ struct MlsMpm {
     int nParts = 0;
     bool cuts = false;  ///< some particle may be cut (withParts)
     /// The CPU computes the stencils QuadraticStencil(geo, P.x[p]) of many particles at
-    /// once and hands each to gatherAt.
+    /// once and hands each to gatherAt, and with them the gather's sums, apicSums(stencil,
+    /// nodes), to gatherSummed (backend/cpu/gather_batch.h).
     using BatchedStencil = QuadraticStencil;
+    static constexpr bool kBatchedSums = true;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       return gatherAt(p, QuadraticStencil(geo, P.x[p]), nodes);
     }
     template <class Nodes>
     MPM_HD StepCheck gatherAt(uint32_t p, const QuadraticStencil& st, const Nodes& nodes) const {
+      return gatherSummed(p, st, nullptr, nodes);
+    }
+    /// `sums`: apicSums(st, nodes) if already computed (not read for a cut particle or a
+    /// stray), else null.
+    template <class Nodes>
+    MPM_HD StepCheck gatherSummed(uint32_t p, const QuadraticStencil& st, const ApicSums* sums,
+                                  const Nodes& nodes) const {
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
@@ -72,7 +81,7 @@ struct MlsMpm {
       if (cut)
         gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
       else
-        apicGather(st, geo, nodes, v, C);
+        apicFromSums(st, geo, sums ? *sums : apicSums(st, nodes), v, C);
       P.v[p] = v;
       P.C[p] = C;
       P.x[p] += dt * v;

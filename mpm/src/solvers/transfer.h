@@ -70,15 +70,20 @@ MPM_HD void apicScatter(const QuadraticStencil& st, float dx, float m, Vec3f mv,
     }
 }
 
-/// APIC gather from the updated grid: v = sum w v_i and C = M^-1 sum w v_i (x_i - x_p)^T.
+/// The sums of an APIC gather over a stencil: sum w v_i (lanes 1-3 of v; lane 0 the nodes'
+/// mass, unused) and B's columns before their offsets, bi = sum w v_i i, bj, bk likewise
+/// (apicFromSums). The CPU computes them for many particles at once
+/// (backend/cpu/gather_batch.h, the same arithmetic lane by lane).
+struct ApicSums {
+  Float4 v, bi, bj, bk;
+};
+
+/// apicGather's sums. B = sum w v (x_i - x_p)^T is accumulated as sum (w v) i^T dx minus
+/// (sum w v) fx^T dx, separably (k innermost).
 template <class Nodes>
-MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, const Nodes& nodes, Vec3f& v,
-                       Mat3f& C) {
+MPM_HD ApicSums apicSums(const QuadraticStencil& st, const Nodes& nodes) {
   const int* base = st.base;
   const float(&w)[3][3] = st.w;
-  const float dx = geo.dx;
-  // B = sum w v (x_i - x_p)^T, accumulated as sum (w v) i^T dx minus (sum w v) fx^T dx;
-  // lane 0 of each sum carries the nodes' mass and is not used
   Float4 sv = Float4::zero(), bi = Float4::zero(), bj = Float4::zero(), bk = Float4::zero();
   for (int i = 0; i < 3; ++i) {
     Float4 si = Float4::zero(), sj = Float4::zero(), sk = Float4::zero();
@@ -97,10 +102,24 @@ MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, cons
     bj += w[0][i] * sj;
     bk += w[0][i] * sk;
   }
-  v = sv.xyz();
+  return ApicSums{sv, bi, bj, bk};
+}
+
+/// v = sum w v_i and C = M^-1 sum w v_i (x_i - x_p)^T from the sums.
+MPM_HD void apicFromSums(const QuadraticStencil& st, const GridGeometry& geo, const ApicSums& sums, Vec3f& v,
+                         Mat3f& C) {
+  const float dx = geo.dx;
+  v = sums.v.xyz();
   const Vec3f fx = st.fx;
-  C = apicInverseInertia(geo) *
-      Mat3f::fromColumns(dx * (bi.xyz() - fx.x * v), dx * (bj.xyz() - fx.y * v), dx * (bk.xyz() - fx.z * v));
+  C = apicInverseInertia(geo) * Mat3f::fromColumns(dx * (sums.bi.xyz() - fx.x * v), dx * (sums.bj.xyz() - fx.y * v),
+                                                   dx * (sums.bk.xyz() - fx.z * v));
+}
+
+/// APIC gather from the updated grid: v = sum w v_i and C = M^-1 sum w v_i (x_i - x_p)^T.
+template <class Nodes>
+MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, const Nodes& nodes, Vec3f& v,
+                       Mat3f& C) {
+  apicFromSums(st, geo, apicSums(st, nodes), v, C);
 }
 
 /// The end of every solver's G2P: push the particle out of the shapes it ended inside,

@@ -25,6 +25,7 @@
 #include <type_traits>
 #include <vector>
 
+#include "backend/cpu/gather_batch.h"
 #include "backend/cpu/stencil_batch.h"
 #include "backend/cpu/stress_batch.h"
 #include "backend/cpu/thread_team.h"
@@ -68,6 +69,13 @@ template <class F>
 struct BatchesStencil<F, std::void_t<typename F::BatchedStencil>> : std::true_type {
   using Stencil = typename F::BatchedStencil;
 };
+/// kBatchedSums: a G2P kernel with a BatchedStencil takes its APIC sums, apicSums(stencil,
+/// nodes), from the caller too (gatherSummed(p, stencil, &sums, nodes)), computed for a run
+/// of particles at once (apicSumsBatch).
+template <class F, class = void>
+struct BatchesSums : std::false_type {};
+template <class F>
+struct BatchesSums<F, std::void_t<decltype(F::kBatchedSums)>> : std::bool_constant<F::kBatchedSums> {};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -398,6 +406,7 @@ struct CpuExec {
         BlockTile tile;
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
+        ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1];  // BatchesSums: theirs
         for (long long j; (j = next.fetch_add(1)) < (long long)occupied_.size();) {
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
@@ -410,7 +419,13 @@ struct CpuExec {
             for (uint32_t r = start_[j]; r < start_[j + 1];) {
               const int n = (int)std::min<uint32_t>(kStencilRun, start_[j + 1] - r);
               st.compute(f.geo, f.P.x, &order_[r], n);
-              for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.template at<Stencil>(q), tile));
+              if constexpr (BatchesSums<F>::value) {
+                apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, tile.mv, tile.origin, sums);
+                for (int q = 0; q < n; ++q)
+                  take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), &sums[q], tile));
+              } else {
+                for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.template at<Stencil>(q), tile));
+              }
               r += n;
             }
           } else {
