@@ -72,9 +72,23 @@ struct PbMpm {
     const PartView* parts = nullptr;  ///< the parts in reach this substep (withParts)
     int nParts = 0;
     bool cuts = false;  ///< some particle may be cut (withParts)
+    /// As MLS-MPM's G2P: the CPU hands each particle its stencil, QuadraticStencil(geo,
+    /// P.x[p]), and its APIC sums, computed for many particles at once.
+    using BatchedStencil = QuadraticStencil;
+    static constexpr bool kBatchedSums = true;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      const QuadraticStencil st(geo, P.x[p]);
+      return gatherAt(p, QuadraticStencil(geo, P.x[p]), nodes);
+    }
+    template <class Nodes>
+    MPM_HD StepCheck gatherAt(uint32_t p, const QuadraticStencil& st, const Nodes& nodes) const {
+      return gatherSummed(p, st, nullptr, nodes);
+    }
+    /// `sums`: apicSums(st, nodes) if already computed (not read for a cut particle or a
+    /// stray), else null.
+    template <class Nodes>
+    MPM_HD StepCheck gatherSummed(uint32_t p, const QuadraticStencil& st, const ApicSums* sums,
+                                  const Nodes& nodes) const {
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
@@ -82,7 +96,7 @@ struct PbMpm {
       if (cut)
         gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
       else
-        apicGather(st, geo, nodes, v, C);
+        apicFromSums(st, geo, sums ? *sums : apicSums(st, nodes), v, C);
       P.v[p] = v;
       P.C[p] = C;
       if (integrate) {
