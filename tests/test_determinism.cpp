@@ -237,6 +237,16 @@ TEST(ThreadTeam, ForkedChildRefusesAStepInFlight) {
 }
 
 
+/// The grid of the lane tests below: 24 cells of 5 cm a side (6 blocks), off the origin.
+GridGeometry laneTestGrid() {
+  GridGeometry geo;
+  geo.lower = Vec3f{-0.3f, -0.25f, -0.2f};
+  geo.dx = 0.05f;
+  geo.invDx = 1.f / geo.dx;
+  for (int a = 0; a < 3; ++a) geo.cells[a] = 24, geo.blocks[a] = 6;
+  return geo;
+}
+
 // The CPU's P2G and G2P take the stencils of a run of particles from StencilRun (SIMD
 // lanes). Its base must be QuadraticStencil's exactly (binning found the block from it:
 // another base is a tile index out of range), and so must fx, computed from it with
@@ -245,11 +255,7 @@ TEST(ThreadTeam, ForkedChildRefusesAStepInFlight) {
 // strays (below, above, NaN, infinite), consecutive ids (the vector loads) and not, and a
 // partial last vector.
 TEST(StencilRun, MatchesQuadraticStencil) {
-  GridGeometry geo;
-  geo.lower = Vec3f{-0.3f, -0.25f, -0.2f};
-  geo.dx = 0.05f;
-  geo.invDx = 1.f / geo.dx;
-  for (int a = 0; a < 3; ++a) geo.cells[a] = 24, geo.blocks[a] = 6;
+  const GridGeometry geo = laneTestGrid();
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(-0.4f, 1.0f);
   const int n = 1000;
@@ -300,11 +306,7 @@ TEST(StencilRun, MatchesQuadraticStencil) {
 // so 1e-6). A wrong node or weight is off by about 0.1. Particles anywhere in the block, a
 // stray (its sums are not written), and runs of 64 and of 61 (a partial last vector).
 TEST(ApicSumsBatch, MatchesEachParticlesSums) {
-  GridGeometry geo;
-  geo.lower = Vec3f{-0.3f, -0.25f, -0.2f};
-  geo.dx = 0.05f;
-  geo.invDx = 1.f / geo.dx;
-  for (int a = 0; a < 3; ++a) geo.cells[a] = 24, geo.blocks[a] = 6;
+  const GridGeometry geo = laneTestGrid();
   constexpr int kEdge = kBlockSize + 2;
   const int origin[3] = {4, 8, 12};  // block (1, 2, 3)
   std::mt19937 rng(9);

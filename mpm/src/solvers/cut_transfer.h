@@ -306,4 +306,19 @@ MPM_HD_OUTLINE void gatherCutParticle(const QuadraticStencil& st, float dx, cons
   SidedStencil(st, dx, cut).gather(st, nodes, vOld, v, C, oldOut);
 }
 
+/// G2P's velocity and affine field of an APIC particle (MLS-MPM, PB-MPM) inside the grid:
+/// through its cut if it is cut, else from its APIC sums, `sums` if the caller computed them
+/// (backend/cpu/gather_batch.h), else from the nodes. Returns whether it is cut.
+template <class Nodes>
+MPM_HD bool apicGatherParticle(uint32_t p, const ParticleView& P, const GridGeometry& geo, bool cuts,
+                               const QuadraticStencil& st, const ApicSums* sums, const Nodes& nodes, Vec3f& v,
+                               Mat3f& C) {
+  const bool cut = cuts && isCut(P.cut[p]);
+  if (cut)
+    gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
+  else
+    apicFromSums(st, geo, sums ? *sums : apicSums(st, nodes), v, C);
+  return cut;
+}
+
 }  // namespace mpm

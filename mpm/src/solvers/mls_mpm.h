@@ -57,17 +57,13 @@ struct MlsMpm {
     int nParts = 0;
     bool cuts = false;  ///< some particle may be cut (withParts)
     /// The CPU computes the stencils QuadraticStencil(geo, P.x[p]) of many particles at
-    /// once and hands each to gatherAt, and with them the gather's sums, apicSums(stencil,
-    /// nodes), to gatherSummed (backend/cpu/gather_batch.h).
+    /// once and with them the gather's sums, apicSums(stencil, nodes), and hands each to
+    /// gatherSummed (backend/cpu/stencil_batch.h, gather_batch.h).
     using BatchedStencil = QuadraticStencil;
     static constexpr bool kBatchedSums = true;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      return gatherAt(p, QuadraticStencil(geo, P.x[p]), nodes);
-    }
-    template <class Nodes>
-    MPM_HD StepCheck gatherAt(uint32_t p, const QuadraticStencil& st, const Nodes& nodes) const {
-      return gatherSummed(p, st, nullptr, nodes);
+      return gatherSummed(p, QuadraticStencil(geo, P.x[p]), nullptr, nodes);
     }
     /// `sums`: apicSums(st, nodes) if already computed (not read for a cut particle or a
     /// stray), else null.
@@ -77,11 +73,7 @@ struct MlsMpm {
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
-      const bool cut = cuts && isCut(P.cut[p]);
-      if (cut)
-        gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
-      else
-        apicFromSums(st, geo, sums ? *sums : apicSums(st, nodes), v, C);
+      const bool cut = apicGatherParticle(p, P, geo, cuts, st, sums, nodes, v, C);
       P.v[p] = v;
       P.C[p] = C;
       P.x[p] += dt * v;

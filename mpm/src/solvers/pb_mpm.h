@@ -78,11 +78,7 @@ struct PbMpm {
     static constexpr bool kBatchedSums = true;
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
-      return gatherAt(p, QuadraticStencil(geo, P.x[p]), nodes);
-    }
-    template <class Nodes>
-    MPM_HD StepCheck gatherAt(uint32_t p, const QuadraticStencil& st, const Nodes& nodes) const {
-      return gatherSummed(p, st, nullptr, nodes);
+      return gatherSummed(p, QuadraticStencil(geo, P.x[p]), nullptr, nodes);
     }
     /// `sums`: apicSums(st, nodes) if already computed (not read for a cut particle or a
     /// stray), else null.
@@ -92,11 +88,7 @@ struct PbMpm {
       if (!st.inside(geo)) return strayParticle(p, P);
       Vec3f v;
       Mat3f C;
-      const bool cut = cuts && isCut(P.cut[p]);
-      if (cut)
-        gatherCutParticle(st, geo.dx, P.cut[p], nodes, P.v[p], v, C, nullptr);
-      else
-        apicFromSums(st, geo, sums ? *sums : apicSums(st, nodes), v, C);
+      const bool cut = apicGatherParticle(p, P, geo, cuts, st, sums, nodes, v, C);
       P.v[p] = v;
       P.C[p] = C;
       if (integrate) {

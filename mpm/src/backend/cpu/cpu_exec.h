@@ -58,8 +58,8 @@ struct BatchesProjection : std::false_type {};
 template <class F>
 struct BatchesProjection<F, std::void_t<decltype(F::kBatchedProjection)>> : std::bool_constant<F::kBatchedProjection> {};
 /// BatchedStencil: a transfer kernel takes each particle's stencil, BatchedStencil(geo,
-/// P.x[p]), from the caller (P2G: scatterStressed(p, stencil, tau, nodes), G2P: gatherAt(p,
-/// stencil, nodes)), so the CPU computes them for a run of particles at once
+/// P.x[p]), from the caller (P2G: scatterStressed(p, stencil, tau, nodes), G2P: gatherSummed(p,
+/// stencil, sums or null, nodes)), so the CPU computes them for a run of particles at once
 /// (StencilRun). Stencil: that type; char for kernels without one (never built then).
 template <class F, class = void>
 struct BatchesStencil : std::false_type {
@@ -424,7 +424,8 @@ struct CpuExec {
                 for (int q = 0; q < n; ++q)
                   take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), &sums[q], tile));
               } else {
-                for (int q = 0; q < n; ++q) take(f.gatherAt(order_[r + q], st.template at<Stencil>(q), tile));
+                for (int q = 0; q < n; ++q)
+                  take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), nullptr, tile));
               }
               r += n;
             }
