@@ -29,23 +29,23 @@ void apicSumsBatch(const StencilRun<kRun>& st, int n, const GridGeometry& geo, c
   constexpr int kPer = simd::kLanes / 4;  // particles per vector
   typedef float F4 __attribute__((vector_size(16)));
   typedef float F8 __attribute__((vector_size(32)));
-  // lanes 4p..4p+3 = w[p]: the run's weights of particles q0.. are consecutive floats
-  // (StencilRun computes whole vectors, so the lanes past n hold numbers too, unused)
+  // lanes 4p..4p+3 = w[p], p < kPer: the run's weights of particles q0.. are consecutive
+  // floats (StencilRun computes whole vectors, so the lanes past n hold numbers too,
+  // unused); reads w[0 .. kPer) only (with 1 particle per vector, q0 goes up to the run's
+  // last particle)
   const auto spread = [](const float* w) {
+#if defined(__AVX512F__)
     F4 w4;
     __builtin_memcpy(&w4, w, sizeof(w4));
-#if defined(__AVX512F__)
     // one vpermps (GCC widens a shuffle of a 4-float vector to 16 lanes through the stack,
     // a store-forwarding stall per weight)
     const __m512i lanes = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
     return (Floats)_mm512_permutexvar_ps(lanes, _mm512_castps128_ps512((__m128)w4));
+#else
+    Floats v;
+    for (int l = 0; l < simd::kLanes; ++l) v[l] = w[l / 4];
+    return v;
 #endif
-    if constexpr (kPer == 4)
-      return __builtin_shufflevector(w4, w4, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3);
-    else if constexpr (kPer == 2)
-      return __builtin_shufflevector(w4, w4, 0, 0, 0, 0, 1, 1, 1, 1);
-    else
-      return __builtin_shufflevector(w4, w4, 0, 0, 0, 0);
   };
   static_assert(kRun % 4 == 0, "whole groups of four particles in a run");
   for (int q0 = 0; q0 < n; q0 += kPer) {
