@@ -100,7 +100,6 @@ void apicSumsBatch(const StencilRun<kRun>& st, int n, const GridGeometry& geo, c
     }
   }
 #else
-  (void)geo;
   for (int q = 0; q < n; ++q) {
     const QuadraticStencil s = st.template at<QuadraticStencil>(q);
     if (!s.inside(geo)) continue;
