@@ -307,6 +307,41 @@ TEST(ShapeContact, EarlyOutBoundHoldsForEveryLipschitzPart) {
   EXPECT_EQ(checked, 5 * 20000);
 }
 
+// PartView::distance takes a sphere's and a plane's distance in the world frame (no turn
+// into the part's frame and back); it must be the part-frame value, sdfSphere / sdfPlane of
+// R^T (x - anchor) with the normal turned back by R, up to rounding, for a turned part
+// placed off the origin (a wrong axis for the plane's normal, or a sphere measured from
+// anything but its centre, is off by centimetres).
+TEST(ShapeContact, WorldFrameDistanceOfSpheresAndPlanesIsThePartFrames) {
+  const float s = std::sin(0.5f * 1.1f), c = std::cos(0.5f * 1.1f);
+  const Quat turn{c, 0.48f * s, 0.6f * s, 0.64f * s};
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-0.25f, 0.25f);
+  for (GeometryType t : {GeometryType::Plane, GeometryType::Sphere}) {
+    ShapeDesc d;
+    d.parts = {Geometry{}};
+    d.parts[0].type = t;
+    d.parts[0].radius = 0.03f;
+    d.pose.position = {0.02f, 0.11f, -0.03f};
+    d.pose.rotation = turn;
+    const PartView part = placedPart(d, Vec3f{0.f, 0.1f, 0.f});
+    float worstPhi = 0.f, worstN = 0.f;
+    for (int k = 0; k < 10000; ++k) {
+      const Vec3f x{u(rng), 0.1f + u(rng), u(rng)};
+      Vec3f n, nl;
+      const float phi = part.distance(x, n);
+      const Vec3f p = transpose(part.rotation) * (x - part.position);
+      const float ref = t == GeometryType::Plane ? sdfPlane(p, nl) : sdfSphere(p, part.radius, nl);
+      worstPhi = std::fmax(worstPhi, std::fabs(phi - ref));
+      worstN = std::fmax(worstN, norm(n - part.rotation * nl));
+    }
+    std::printf("geometry %d: largest |phi - part frame's| %.3g m, |n - part frame's| %.3g\n", (int)t, worstPhi,
+                worstN);
+    EXPECT_LE(worstPhi, 1e-6f) << "geometry " << (int)t;  // float rounding on 0.5 m
+    EXPECT_LE(worstN, 1e-5f) << "geometry " << (int)t;
+  }
+}
+
 TEST(ShapeContact, RestingBoxIsHeldByItsWeight) {
   Scene scene(contactScene());
   const ParticleObjectId tissue = scene.addParticleObject(softBlock());
