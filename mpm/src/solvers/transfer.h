@@ -3,6 +3,8 @@
 // their gradients), the APIC scatter and gather (seed 000 eqs. 10-11), the node accessor
 // through the block table, and the per-particle end-of-substep checks. The solvers in
 // this folder are compositions of these pieces; none of them repeats one.
+#include <type_traits>
+
 #include "core/particle_state.h"
 #include "core/substep.h"
 #include "grid/block_grid.h"
@@ -41,6 +43,38 @@ MPM_HD float apicInverseInertia(const GridGeometry& geo) { return 4.f * geo.invD
 // per-axis weights, so sums over the stencil are taken axis by axis (k innermost) and
 // node values move as Float4 {mass, x, y, z}, one short vector per node.
 
+/// One particle's APIC scatter before its weights: the node at offset (i, j, k) from its
+/// stencil base takes w_ijk (q0 + i qx + j qy + k qz) as {mass, momentum}, and with
+/// kCentroid w_ijk mx4 as {w m touch_p, w m x_p}.
+struct ApicTerms {
+  Float4 q0, qx, qy, qz, mx4;
+};
+
+/// Whether `Nodes` takes a particle's ApicTerms whole (deferApic) instead of its 27 node
+/// values: the CPU's P2G tile, which sums the particles of each stencil cell before adding
+/// them to the tile (backend/cpu/scatter_cells.h).
+template <class Nodes, class = void>
+struct DefersApic : std::false_type {};
+template <class Nodes>
+struct DefersApic<Nodes, std::void_t<decltype(Nodes::kDefersApic)>> : std::bool_constant<Nodes::kDefersApic> {};
+
+/// Adds one particle's APIC terms to the 27 nodes of its stencil.
+template <bool kCentroid, class Nodes>
+MPM_HD void apicScatterTerms(const QuadraticStencil& st, const ApicTerms& t, Nodes& nodes) {
+  const int* base = st.base;
+  const float(&w)[3][3] = st.w;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const Float4 qij = t.q0 + (float)i * t.qx + (float)j * t.qy;
+      const float wij = w[0][i] * w[1][j];
+      for (int k = 0; k < 3; ++k) {
+        const float wt = wij * w[2][k];
+        nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * (qij + (float)k * t.qz));
+        if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, wt * t.mx4);
+      }
+    }
+}
+
 /// APIC scatter of one particle: node momentum w (mv + A (x_i - x_p)) and mass w m.
 /// `affine` is A: m C for APIC and PB-MPM, m C - dt V0 M^-1 tau for MLS-MPM. `Nodes` is
 /// where the nodes live (the global grid with the backend's accumulate, or a CPU block
@@ -48,26 +82,20 @@ MPM_HD float apicInverseInertia(const GridGeometry& geo) { return 4.f * geo.invD
 template <bool kCentroid, class Nodes>
 MPM_HD void apicScatter(const QuadraticStencil& st, float dx, float m, Vec3f mv, const Mat3f& affine, Vec3f xp,
                         float touch, Nodes& nodes) {
-  const int* base = st.base;
-  const float(&w)[3][3] = st.w;
   // {mass, momentum} at node offset d: {m, mv + A d}, built incrementally along each axis
   const Vec3f d0{-st.fx.x * dx, -st.fx.y * dx, -st.fx.z * dx};
   const Vec3f a0 = mv + affine * d0;
   const Vec3f ax = dx * affine.column(0), ay = dx * affine.column(1), az = dx * affine.column(2);
-  const Float4 q0 = Float4::make(m, a0.x, a0.y, a0.z);
-  const Float4 qx = Float4::make(0.f, ax.x, ax.y, ax.z), qy = Float4::make(0.f, ay.x, ay.y, ay.z),
-               qz = Float4::make(0.f, az.x, az.y, az.z);
-  const Float4 x4 = Float4::make(touch, xp.x, xp.y, xp.z);
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      const Float4 qij = q0 + (float)i * qx + (float)j * qy;
-      const float wij = w[0][i] * w[1][j];
-      for (int k = 0; k < 3; ++k) {
-        const float wt = wij * w[2][k];
-        nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * (qij + (float)k * qz));
-        if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, (wt * m) * x4);
-      }
-    }
+  ApicTerms t;
+  t.q0 = Float4::make(m, a0.x, a0.y, a0.z);
+  t.qx = Float4::make(0.f, ax.x, ax.y, ax.z);
+  t.qy = Float4::make(0.f, ay.x, ay.y, ay.z);
+  t.qz = Float4::make(0.f, az.x, az.y, az.z);
+  t.mx4 = m * Float4::make(touch, xp.x, xp.y, xp.z);
+  if constexpr (DefersApic<Nodes>::value)
+    nodes.template deferApic<kCentroid>(st, t);
+  else
+    apicScatterTerms<kCentroid>(st, t, nodes);
 }
 
 /// The sums of an APIC gather over a stencil: sum w v_i (lanes 1-3 of v; lane 0 the nodes'

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "backend/cpu/gather_batch.h"
+#include "backend/cpu/scatter_cells.h"
 #include "backend/cpu/stencil_batch.h"
 #include "backend/cpu/stress_batch.h"
 #include "backend/cpu/thread_team.h"
@@ -148,6 +149,27 @@ struct BlockTile {
       if (kDmv) dmv[t] = Float4::make(0.f, g.dmv.x, g.dmv.y, g.dmv.z);
     });
   }
+};
+
+/// P2G's tile: a particle's APIC scatter (apicScatter) is recorded and summed with the
+/// other particles of its stencil cell when the block is done (finish), not added node by
+/// node; what a kernel adds itself (a cut particle, standard MPM) goes straight in.
+struct P2GTile : BlockTile {
+  static constexpr bool kDefersApic = true;
+  CellScatter* cells = nullptr;
+
+  template <bool kCentroid>
+  void deferApic(const QuadraticStencil& st, const ApicTerms& t) {
+    const int ci = st.base[0] - origin[0], cj = st.base[1] - origin[1], ck = st.base[2] - origin[2];
+    // binned by its stencil base's block, so always inside; anything else goes straight in
+    if ((unsigned)ci < (unsigned)kBlockSize && (unsigned)cj < (unsigned)kBlockSize && (unsigned)ck < (unsigned)kBlockSize)
+      cells->record((ci * kBlockSize + cj) * kBlockSize + ck, st.w, t);
+    else
+      apicScatterTerms<kCentroid>(st, t, *this);
+  }
+  /// Adds the recorded particles to the tile (before flush).
+  template <bool kCentroid>
+  void finish() { cells->flush<kCentroid, kEdge>(mv, mx); }
 };
 
 struct CpuExec {
@@ -354,7 +376,9 @@ struct CpuExec {
       for (auto& c : next) c.store(0);
       pool.run((long long)occupied_.size() >= kMinParallelBlocks ? threads : 1, [&](int, int nt) {
         constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
-        BlockTile tile;
+        P2GTile tile;
+        thread_local CellScatter cells;  // grows to the largest block once per thread
+        tile.cells = &cells;
         Mat3f tau[kStressRun];  // BatchesStress / BatchesProjection: the next particles' tau or C_c
         static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value, "a batched stencil comes with the stress");
         using Stencil = typename BatchesStencil<F>::Stencil;
@@ -365,6 +389,7 @@ struct CpuExec {
             const uint32_t j = blocks[b];
             tile.setBlock(geo_, occupied_[j]);
             tile.clear<kMx, kDmv>();
+            cells.reserve(start_[j + 1] - start_[j]);
             if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
               for (uint32_t r = start_[j]; r < start_[j + 1];) {
                 const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
@@ -386,6 +411,7 @@ struct CpuExec {
             } else {
               for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
             }
+            tile.finish<kMx>();
             tile.flush<kMx, kDmv>(grid);
           }
           pool.barrier(nt);
