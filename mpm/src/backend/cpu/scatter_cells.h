@@ -74,44 +74,46 @@ class CellScatter {
       const int ci = c / (kBlockSize * kBlockSize), cj = (c / kBlockSize) % kBlockSize, ck = c % kBlockSize;
 #if defined(__AVX512F__) && defined(MPM_FLOAT4_VECTOR)
       sumCellRows<kCentroid, kEdge>(start[c], start[c + 1], ((ci * kEdge + cj) * kEdge + ck), mv, mx);
-      continue;
-#endif
-      for (int i = 0; i < 3; ++i) {
-        // this cell's particles on the 9 nodes of plane i, in registers
-        Float4 sm[3][3], sx[3][3];
-        for (int j = 0; j < 3; ++j)
-          for (int k = 0; k < 3; ++k) sm[j][k] = sx[j][k] = Float4::zero();
-        for (uint32_t o = start[c]; o < start[c + 1]; ++o) {
-          const Entry& e = entries_[order_[o]];
-          const Float4 qi = e.t.q0 + (float)i * e.t.qx;
-          for (int j = 0; j < 3; ++j) {
-            // as apicScatterTerms: q0 + i qx + j qy, then + k qz
-            const Float4 qij = qi + (float)j * e.t.qy;
-            const float wij = e.w[0][i] * e.w[1][j];
-            for (int k = 0; k < 3; ++k) {
-              const float wt = wij * e.w[2][k];
-              sm[j][k] += wt * (qij + (float)k * e.t.qz);
-              if constexpr (kCentroid) sx[j][k] += wt * e.t.mx4;
-            }
-          }
-        }
+#else
+      // this cell's particles through apicScatterTerms into 27 sums (stencil base 0), in order
+      CellSums sums;
+      QuadraticStencil st;
+      st.base[0] = st.base[1] = st.base[2] = 0;
+      for (uint32_t o = start[c]; o < start[c + 1]; ++o) {
+        const Entry& e = entries_[order_[o]];
+        for (int a = 0; a < 3; ++a)
+          for (int b = 0; b < 3; ++b) st.w[a][b] = e.w[a][b];
+        apicScatterTerms<kCentroid>(st, e.t, sums);
+      }
+      for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j)
           for (int k = 0; k < 3; ++k) {
-            const int node = ((ci + i) * kEdge + (cj + j)) * kEdge + (ck + k);
-            mv[node] += sm[j][k];
-            if constexpr (kCentroid) mx[node] += sx[j][k];
+            const int node = ((ci + i) * kEdge + (cj + j)) * kEdge + (ck + k), q = (i * 3 + j) * 3 + k;
+            mv[node] += sums.mv[q];
+            if constexpr (kCentroid) mx[node] += sums.mx[q];
           }
-      }
+#endif
     }
     count_ = 0;
   }
 
  private:
+  /// A cell's 27 stencil nodes (offsets 0..2 along each axis) as apicScatterTerms's `Nodes`.
+  struct CellSums {
+    Float4 mv[27], mx[27];
+    CellSums() {
+      for (int q = 0; q < 27; ++q) mv[q] = mx[q] = Float4::zero();
+    }
+    void add(int i, int j, int k, const Float4& v) { mv[(i * 3 + j) * 3 + k] += v; }
+    void addCentroid(int i, int j, int k, const Float4& v) { mx[(i * 3 + j) * 3 + k] += v; }
+  };
+
 #if defined(__AVX512F__) && defined(MPM_FLOAT4_VECTOR)
   /// One cell's particles (order_[first, last)) added to the tile from node `n0` (the
   /// cell's first stencil node): a stencil row of three nodes (k fastest, side by side in
   /// the tile) is one 16-float vector (the fourth node's lanes zero and never stored), so
-  /// each particle's row is a multiply and two multiply-adds.
+  /// each particle's row is a multiply and two multiply-adds. Lane by lane
+  /// apicScatterTerms's arithmetic in its order: the same bits as the path without AVX-512.
   template <bool kCentroid, int kEdge>
   void sumCellRows(uint32_t first, uint32_t last, int n0, Float4* mv, Float4* mx) const {
     constexpr __mmask16 kRow = 0x0fff;
