@@ -342,6 +342,34 @@ TEST(ShapeContact, WorldFrameDistanceOfSpheresAndPlanesIsThePartFrames) {
   }
 }
 
+// withinTouch skips the cube root where the cubes of phi and touchDistance decide: it must
+// say what phi < touchDistance(volume0) says everywhere, also at the boundary itself and a
+// float either side of it, for volumes of a micro-metre cube to a metre cube and for
+// negative, zero and far distances.
+TEST(ShapeContact, WithinTouchIsTheCubeRootsAnswer) {
+  std::mt19937 rng(41);
+  std::uniform_real_distribution<float> logVolume(-18.f, 0.f), factor(0.f, 3.f);
+  long long wrong = 0, checked = 0;
+  const auto check = [&](float phi, float v) {
+    ++checked;
+    if (withinTouch(phi, v) != (phi < touchDistance(v))) ++wrong;
+  };
+  for (int s = 0; s < 200000; ++s) {
+    const float v = std::pow(10.f, logVolume(rng)), d = touchDistance(v);
+    check(factor(rng) * d, v);
+    check(d, v);
+    check(std::nextafter(d, 0.f), v);
+    check(std::nextafter(d, 1.f), v);
+    check(d * (1.f + 1e-4f * (factor(rng) - 1.5f)), v);  // inside the band the cubes leave open
+  }
+  for (float v : {1e-9f, 1e-6f, 1.f})
+    for (float phi : {-1.f, -0.f, 0.f, 1e-30f, 1e9f, 3e38f, INFINITY, -INFINITY}) check(phi, v);
+  check(0.01f, 0.f);
+  check(-0.01f, 0.f);
+  check(0.f, 0.f);
+  EXPECT_EQ(wrong, 0) << "of " << checked;
+}
+
 TEST(ShapeContact, RestingBoxIsHeldByItsWeight) {
   Scene scene(contactScene());
   const ParticleObjectId tissue = scene.addParticleObject(softBlock());

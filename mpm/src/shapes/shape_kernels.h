@@ -412,6 +412,20 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
 /// more so that one resting there still touches while it vibrates.
 MPM_HD float touchDistance(float volume0) { return 0.625f * cbrtf(volume0); }
 
+/// phi < touchDistance(volume0), with the cube root taken only where the cubes cannot tell:
+/// touchDistance^3 = 0.625^3 volume0 up to cbrtf's and the products' rounding (a few 1e-7),
+/// so outside a band of 1e-4 about it the cubes give the same answer. cbrtf for every
+/// particle a part's bounds hold was 2 % of the embedding scene's substep (2 threads).
+MPM_HD bool withinTouch(float phi, float volume0) {
+  // the cubes below stay normal floats: volumes of particles, distances in the domain
+  if (!(volume0 > 1e-30f && volume0 < 1e30f && phi < 1e10f)) return phi < touchDistance(volume0);
+  if (phi <= 0.f) return true;  // touchDistance > 0
+  const float cube = phi * phi * phi, bound = 0.244140625f * volume0;  // 0.625^3, exact
+  if (cube > 1.0001f * bound) return false;
+  if (cube < 0.9999f * bound) return true;
+  return phi < touchDistance(volume0);
+}
+
 /// A part in a NearParts list: its index and a copy of its bounds (PartView::boundsLower,
 /// boundsUpper), so a scan of the list reads 28 bytes a part, not a PartView's 272.
 struct NearPart {
@@ -439,15 +453,15 @@ struct NearParts {
 };
 
 /// One part's push-out (pushOutOfParts), once its bounds meet x; `touch` set when x lies
-/// within touchDistance of it (computed from `volume0` only then: cbrtf for every particle
-/// was 3 % of a substep). Returns whether x moved.
+/// within touchDistance of it (withinTouch, asked only then: cbrtf for every particle was 3 %
+/// of a substep). Returns whether x moved.
 MPM_HD bool pushOutOfPart(Vec3f& x, const PartView& part, float volume0, bool& touch) {
   Vec3f n;
   const float phi = part.distance(x, n);
   bool beyond = false;
   // past a needle's arc ends the tip decides (a blunt tip pushes, one inside opens)
   if (phi < 0.f && part.type == kPartArc) part.curveTangent(x, beyond);
-  touch = touch || phi < touchDistance(volume0);
+  touch = touch || withinTouch(phi, volume0);
   if (!(phi < 0.f && !beyond)) return false;
   x -= phi * n;
   return true;

@@ -58,21 +58,29 @@ struct DefersApic : std::false_type {};
 template <class Nodes>
 struct DefersApic<Nodes, std::void_t<decltype(Nodes::kDefersApic)>> : std::bool_constant<Nodes::kDefersApic> {};
 
-/// Adds one particle's APIC terms to the 27 nodes of its stencil.
+/// Adds one particle's APIC terms to the 27 nodes of its stencil. Factored by x and z first
+/// (q_ik = q0 + i qx + k qz, w_ik = w_0i w_2k), then y: the CPU's cell sums hold a stencil
+/// row along z in one vector and take each particle's rows in this arithmetic, lane by lane
+/// (backend/cpu/scatter_cells.h).
 template <bool kCentroid, class Nodes>
 MPM_HD void apicScatterTerms(const QuadraticStencil& st, const ApicTerms& t, Nodes& nodes) {
   const int* base = st.base;
   const float(&w)[3][3] = st.w;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      const Float4 qij = t.q0 + (float)i * t.qx + (float)j * t.qy;
-      const float wij = w[0][i] * w[1][j];
+  for (int i = 0; i < 3; ++i) {
+    const Float4 qi = t.q0 + (float)i * t.qx;
+    Float4 qik[3];
+    float wik[3];
+    for (int k = 0; k < 3; ++k) {
+      qik[k] = qi + (float)k * t.qz;
+      wik[k] = w[0][i] * w[2][k];
+    }
+    for (int j = 0; j < 3; ++j)
       for (int k = 0; k < 3; ++k) {
-        const float wt = wij * w[2][k];
-        nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * (qij + (float)k * t.qz));
+        const float wt = w[1][j] * wik[k];
+        nodes.add(base[0] + i, base[1] + j, base[2] + k, wt * (qik[k] + (float)j * t.qy));
         if constexpr (kCentroid) nodes.addCentroid(base[0] + i, base[1] + j, base[2] + k, wt * t.mx4);
       }
-    }
+  }
 }
 
 /// APIC scatter of one particle: node momentum w (mv + A (x_i - x_p)) and mass w m.

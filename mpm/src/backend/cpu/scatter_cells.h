@@ -111,40 +111,46 @@ class CellScatter {
 #if defined(__AVX512F__) && defined(MPM_FLOAT4_VECTOR)
   /// One cell's particles (order_[first, last)) added to the tile from node `n0` (the
   /// cell's first stencil node): a stencil row of three nodes (k fastest, side by side in
-  /// the tile) is one 16-float vector (the fourth node's lanes zero and never stored), so
-  /// each particle's row is a multiply and two multiply-adds. Lane by lane
-  /// apicScatterTerms's arithmetic in its order: the same bits as the path without AVX-512.
+  /// the tile) is one 16-float vector (the fourth node's lanes zero and never stored), and
+  /// the cell's nine rows are summed in registers, particle by particle. A particle's rows
+  /// share q_ik and w_ik along the row (one vector each per i), so a row is one multiply
+  /// and two multiply-adds. Lane by lane apicScatterTerms's arithmetic: the same bits as
+  /// the path without AVX-512 on a machine with fused multiply-adds.
   template <bool kCentroid, int kEdge>
   void sumCellRows(uint32_t first, uint32_t last, int n0, Float4* mv, Float4* mx) const {
     constexpr __mmask16 kRow = 0x0fff;
     const __m512i spread = _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
     const __m512 kOf = _mm512_set_ps(0, 0, 0, 0, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0);
-    for (int i = 0; i < 3; ++i) {
-      __m512 sm[3], sx[3];
-      for (int j = 0; j < 3; ++j) sm[j] = sx[j] = _mm512_setzero_ps();
-      for (uint32_t o = first; o < last; ++o) {
-        const Entry& e = entries_[order_[o]];
-        const __m512 w2 = _mm512_permutexvar_ps(spread, _mm512_castps128_ps512(_mm_maskz_loadu_ps(0x7, e.w[2])));
-        const __m512 qz = _mm512_broadcast_f32x4((__m128)e.t.qz.v);
-        const __m512 x4 = _mm512_broadcast_f32x4((__m128)e.t.mx4.v);
+    __m512 sm[9], sx[kCentroid ? 9 : 1];
+    for (__m512& s : sm) s = _mm512_setzero_ps();
+    for (__m512& s : sx) s = _mm512_setzero_ps();
+    for (uint32_t o = first; o < last; ++o) {
+      const Entry& e = entries_[order_[o]];
+      const __m512 w2 = _mm512_permutexvar_ps(spread, _mm512_castps128_ps512(_mm_maskz_loadu_ps(0x7, e.w[2])));
+      const __m512 qy = _mm512_broadcast_f32x4((__m128)e.t.qy.v);
+      const __m512 qz = _mm512_broadcast_f32x4((__m128)e.t.qz.v);
+      const __m512 x4 = _mm512_broadcast_f32x4((__m128)e.t.mx4.v);
+      for (int i = 0; i < 3; ++i) {
         const Float4 qi = e.t.q0 + (float)i * e.t.qx;
+        const __m512 qik = _mm512_maskz_fmadd_ps(kRow, kOf, qz, _mm512_broadcast_f32x4((__m128)qi.v));
+        const __m512 wik = _mm512_mul_ps(_mm512_set1_ps(e.w[0][i]), w2);
         for (int j = 0; j < 3; ++j) {
-          const Float4 qij = qi + (float)j * e.t.qy;
-          const __m512 q = _mm512_maskz_fmadd_ps(kRow, kOf, qz, _mm512_broadcast_f32x4((__m128)qij.v));
-          const __m512 wt = _mm512_mul_ps(_mm512_set1_ps(e.w[0][i] * e.w[1][j]), w2);
-          sm[j] = _mm512_fmadd_ps(wt, q, sm[j]);
-          if constexpr (kCentroid) sx[j] = _mm512_maskz_fmadd_ps(kRow, wt, x4, sx[j]);
-        }
-      }
-      for (int j = 0; j < 3; ++j) {
-        float* pm = reinterpret_cast<float*>(mv + n0 + (i * kEdge + j) * kEdge);
-        _mm512_mask_storeu_ps(pm, kRow, _mm512_add_ps(_mm512_maskz_loadu_ps(kRow, pm), sm[j]));
-        if constexpr (kCentroid) {
-          float* px = reinterpret_cast<float*>(mx + n0 + (i * kEdge + j) * kEdge);
-          _mm512_mask_storeu_ps(px, kRow, _mm512_add_ps(_mm512_maskz_loadu_ps(kRow, px), sx[j]));
+          const __m512 q = _mm512_fmadd_ps(_mm512_set1_ps((float)j), qy, qik);
+          const __m512 wt = _mm512_mul_ps(_mm512_set1_ps(e.w[1][j]), wik);
+          sm[3 * i + j] = _mm512_fmadd_ps(wt, q, sm[3 * i + j]);
+          if constexpr (kCentroid) sx[3 * i + j] = _mm512_maskz_fmadd_ps(kRow, wt, x4, sx[3 * i + j]);
         }
       }
     }
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        float* pm = reinterpret_cast<float*>(mv + n0 + (i * kEdge + j) * kEdge);
+        _mm512_mask_storeu_ps(pm, kRow, _mm512_add_ps(_mm512_maskz_loadu_ps(kRow, pm), sm[3 * i + j]));
+        if constexpr (kCentroid) {
+          float* px = reinterpret_cast<float*>(mx + n0 + (i * kEdge + j) * kEdge);
+          _mm512_mask_storeu_ps(px, kRow, _mm512_add_ps(_mm512_maskz_loadu_ps(kRow, px), sx[3 * i + j]));
+        }
+      }
   }
 #endif
 
