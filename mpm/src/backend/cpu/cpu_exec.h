@@ -365,6 +365,19 @@ struct CpuExec {
         geo_.blockCoords(occupied_[j], bx, by, bz);
         colour_[(bx & 1) | ((by & 1) << 1) | ((bz & 1) << 2)].push_back((uint32_t)j);
       }
+      // Each colour's blocks, and all blocks for G2P, the most particles first: blocks are
+      // handed out one at a time, and with the small ones last the threads finish together.
+      // In a small scene a colour holds a few blocks, and a full one (up to 512 particles)
+      // taken last kept the other thread waiting. The order within a colour does not change
+      // the result (its blocks never flush to the same node), nor G2P's (reads only).
+      const auto moreFirst = [this](uint32_t a, uint32_t b) {
+        const uint32_t na = start_[a + 1] - start_[a], nb = start_[b + 1] - start_[b];
+        return na != nb ? na > nb : a < b;
+      };
+      for (auto& c : colour_) std::sort(c.begin(), c.end(), moreFirst);
+      bySize_.resize(occupied_.size());
+      for (size_t j = 0; j < bySize_.size(); ++j) bySize_[j] = (uint32_t)j;
+      std::sort(bySize_.begin(), bySize_.end(), moreFirst);
     }
 
     /// P2G by coloured blocks, each through its own tile.
@@ -433,7 +446,8 @@ struct CpuExec {
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
         ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1];  // BatchesSums: theirs
-        for (long long j; (j = next.fetch_add(1)) < (long long)occupied_.size();) {
+        for (long long b; (b = next.fetch_add(1)) < (long long)bySize_.size();) {
+          const uint32_t j = bySize_[b];
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
           tile.load<UsesOldVelocity<F>::value>(grid);
@@ -630,7 +644,7 @@ struct CpuExec {
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
       return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
-             occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
+             occupied_.capacity() * 12 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
              nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums);
     }
 
@@ -667,6 +681,7 @@ struct CpuExec {
     std::vector<int32_t> blockSlot_;
     std::vector<uint32_t> order_, occupied_, start_, cursor_, active_;
     std::vector<uint32_t> colour_[8];
+    std::vector<uint32_t> bySize_;  ///< the occupied blocks, the most particles first (G2P's order)
     std::vector<std::vector<uint32_t>> firstSeen_;  ///< per thread: blocks it saw first
     /// Consecutive particles in one block.
     struct BlockRun {
