@@ -305,7 +305,7 @@ struct CpuExec {
           if (q == 0) {
             const int count = (int)std::min<size_t>(kStencilRun, hi - i);
             for (int c = 0; c < count; ++c) ids[c] = (uint32_t)(i + c);
-            st.compute(geo_, P.x, ids, count);
+            st.compute<false>(geo_, P.x, ids, count);
           }
           // GridGeometry::particleBlock, or 0 for a stray (skipped by P2G)
           const int base[3] = {st.base[0][q], st.base[1][q], st.base[2][q]};
@@ -365,19 +365,18 @@ struct CpuExec {
         geo_.blockCoords(occupied_[j], bx, by, bz);
         colour_[(bx & 1) | ((by & 1) << 1) | ((bz & 1) << 2)].push_back((uint32_t)j);
       }
-      // Each colour's blocks, and all blocks for G2P, the most particles first: blocks are
-      // handed out one at a time, and with the small ones last the threads finish together.
-      // In a small scene a colour holds a few blocks, and a full one (up to 512 particles)
-      // taken last kept the other thread waiting. The order within a colour does not change
-      // the result (its blocks never flush to the same node), nor G2P's (reads only).
+      // Each colour's blocks the most particles first: blocks are handed out one at a time,
+      // and with the small ones last the threads finish a colour together (in a small scene
+      // a colour holds a few blocks, and a full one, up to 512 particles, taken last kept
+      // the other thread waiting). The order within a colour does not change the result:
+      // its blocks never flush to the same node. G2P keeps the blocks' memory order: in
+      // size order it was 2-3 % slower at 125k particles (its particle streams broke at
+      // every block), with nothing to balance there.
       const auto moreFirst = [this](uint32_t a, uint32_t b) {
         const uint32_t na = start_[a + 1] - start_[a], nb = start_[b + 1] - start_[b];
         return na != nb ? na > nb : a < b;
       };
       for (auto& c : colour_) std::sort(c.begin(), c.end(), moreFirst);
-      bySize_.resize(occupied_.size());
-      for (size_t j = 0; j < bySize_.size(); ++j) bySize_[j] = (uint32_t)j;
-      std::sort(bySize_.begin(), bySize_.end(), moreFirst);
     }
 
     /// P2G by coloured blocks, each through its own tile.
@@ -446,8 +445,8 @@ struct CpuExec {
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
         ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1];  // BatchesSums: theirs
-        for (long long b; (b = next.fetch_add(1)) < (long long)bySize_.size();) {
-          const uint32_t j = bySize_[b];
+        for (long long b; (b = next.fetch_add(1)) < (long long)occupied_.size();) {
+          const uint32_t j = (uint32_t)b;
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
           tile.load<UsesOldVelocity<F>::value>(grid);
@@ -644,7 +643,7 @@ struct CpuExec {
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
       return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
-             occupied_.capacity() * 12 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
+             occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
              nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums);
     }
 
@@ -681,7 +680,6 @@ struct CpuExec {
     std::vector<int32_t> blockSlot_;
     std::vector<uint32_t> order_, occupied_, start_, cursor_, active_;
     std::vector<uint32_t> colour_[8];
-    std::vector<uint32_t> bySize_;  ///< the occupied blocks, the most particles first (G2P's order)
     std::vector<std::vector<uint32_t>> firstSeen_;  ///< per thread: blocks it saw first
     /// Consecutive particles in one block.
     struct BlockRun {

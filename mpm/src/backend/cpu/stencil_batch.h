@@ -34,7 +34,8 @@ struct StencilRun {
   }
 
   /// The stencils of particles ids[0, n) at x[ids[q]], n <= kRun: at(q) =
-  /// QuadraticStencil(geo, x[ids[q]]).
+  /// QuadraticStencil(geo, x[ids[q]]). kWeights false: the bases only (binning's need).
+  template <bool kWeights = true>
   void compute(const GridGeometry& geo, const Vec3f* x, const uint32_t* ids, int n) {
 #ifdef MPM_STRESS_BATCH
     using simd::Floats;
@@ -55,10 +56,11 @@ struct StencilRun {
         // floor: the truncation, one less where it rounded up (t < 0); exact, t being small
         Ints b = __builtin_convertvector(t, Ints);
         b += (Ints)(__builtin_convertvector(b, Floats) > t);
+        __builtin_memcpy(&base[a][q0], &b, sizeof(b));
+        if (!kWeights) continue;
         const Floats f = (t - __builtin_convertvector(b, Floats)) + 0.5f;
         Floats wa[3];
         quadraticWeights(f, wa);
-        __builtin_memcpy(&base[a][q0], &b, sizeof(b));
         __builtin_memcpy(&fx[a][q0], &f, sizeof(f));
         for (int k = 0; k < 3; ++k) __builtin_memcpy(&w[a][k][q0], &wa[k], sizeof(Floats));
       }
@@ -69,9 +71,10 @@ struct StencilRun {
       Vec3f f;
       geo.stencilBase(x[ids[q]], b, f);
       for (int a = 0; a < 3; ++a) {
+        base[a][q] = b[a];
+        if (!kWeights) continue;
         float wa[3];
         quadraticWeights(f[a], wa);
-        base[a][q] = b[a];
         fx[a][q] = f[a];
         for (int k = 0; k < 3; ++k) w[a][k][q] = wa[k];
       }
