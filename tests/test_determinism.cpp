@@ -352,6 +352,25 @@ TEST(ApicSumsBatch, MatchesEachParticlesSums) {
   }
 }
 
+/// A particle at a random place in the block whose first node is `origin` (its stencil
+/// base inside the block), with random mass, momentum, affine matrix and touch, scattered
+/// (with the centroid sums) into both `tile` and `want`.
+void scatterRandomParticle(const GridGeometry& geo, const int origin[3], std::mt19937& rng, P2GTile& tile,
+                           BlockTile& want) {
+  std::uniform_real_distribution<float> u(-1.f, 1.f), inBlock(0.5f, 0.5f + (float)kBlockSize);
+  Vec3f x;
+  for (int a = 0; a < 3; ++a) x[a] = geo.lower[a] + geo.dx * ((float)origin[a] + inBlock(rng));
+  const QuadraticStencil st(geo, x);
+  ASSERT_TRUE(st.inside(geo));
+  const float m = 0.5f + 0.4f * u(rng), touch = u(rng) > 0.f ? 1.f : 0.f;
+  const Vec3f mv{u(rng), u(rng), u(rng)};
+  Mat3f A;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) A.m[r][c] = 20.f * u(rng);
+  apicScatter<true>(st, geo.dx, m, mv, A, x, touch, tile);
+  apicScatter<true>(st, geo.dx, m, mv, A, x, touch, want);
+}
+
 // The CPU's P2G records each particle's APIC terms and sums a block's particles cell by
 // cell (stencil rows in 16-float vectors where the CPU has AVX-512) before adding them to
 // the tile (backend/cpu/scatter_cells.h). Every node of the tile must hold what adding each
@@ -362,7 +381,6 @@ TEST(CellScatter, SumsMatchEachParticlesScatter) {
   const GridGeometry geo = laneTestGrid();
   const int origin[3] = {4, 8, 12};  // block (1, 2, 3)
   std::mt19937 rng(13);
-  std::uniform_real_distribution<float> u(-1.f, 1.f), inBlock(0.5f, 0.5f + (float)kBlockSize);
   P2GTile tile;
   BlockTile want;
   const uint32_t block = geo.blockIndex(1, 2, 3);
@@ -376,17 +394,7 @@ TEST(CellScatter, SumsMatchEachParticlesScatter) {
   const int n = 300;
   cells.reserve(n);
   for (int p = 0; p < n; ++p) {
-    Vec3f x;
-    for (int a = 0; a < 3; ++a) x[a] = geo.lower[a] + geo.dx * ((float)origin[a] + inBlock(rng));
-    const QuadraticStencil st(geo, x);
-    ASSERT_TRUE(st.inside(geo));
-    const float m = 0.5f + 0.4f * u(rng), touch = u(rng) > 0.f ? 1.f : 0.f;
-    const Vec3f mv{u(rng), u(rng), u(rng)};
-    Mat3f A;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) A.m[r][c] = 20.f * u(rng);
-    apicScatter<true>(st, geo.dx, m, mv, A, x, touch, tile);
-    apicScatter<true>(st, geo.dx, m, mv, A, x, touch, want);
+    scatterRandomParticle(geo, origin, rng, tile, want);
   }
   tile.finish<true>();
   float worst = 0.f;
@@ -407,7 +415,6 @@ TEST(CellScatter, SumsMatchEachParticlesScatter) {
 TEST(CellScatter, ParticleAloneGivesTheNodeByNodeBits) {
   const GridGeometry geo = laneTestGrid();
   std::mt19937 rng(29);
-  std::uniform_real_distribution<float> u(-1.f, 1.f), inBlock(0.5f, 0.5f + (float)kBlockSize);
   const uint32_t block = geo.blockIndex(1, 2, 3);
   const int origin[3] = {4, 8, 12};
   CellScatter cells;
@@ -421,17 +428,7 @@ TEST(CellScatter, ParticleAloneGivesTheNodeByNodeBits) {
     want.clear<true, false>();
     tile.cells = &cells;
     cells.reserve(1);
-    Vec3f x;
-    for (int a = 0; a < 3; ++a) x[a] = geo.lower[a] + geo.dx * ((float)origin[a] + inBlock(rng));
-    const QuadraticStencil st(geo, x);
-    ASSERT_TRUE(st.inside(geo));
-    const float m = 0.5f + 0.4f * u(rng), touch = u(rng) > 0.f ? 1.f : 0.f;
-    const Vec3f mv{u(rng), u(rng), u(rng)};
-    Mat3f A;
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) A.m[r][c] = 20.f * u(rng);
-    apicScatter<true>(st, geo.dx, m, mv, A, x, touch, tile);
-    apicScatter<true>(st, geo.dx, m, mv, A, x, touch, want);
+    scatterRandomParticle(geo, origin, rng, tile, want);
     tile.finish<true>();
     for (int node = 0; node < BlockTile::kNodes; ++node)
       for (int c = 0; c < 4; ++c)
