@@ -445,8 +445,7 @@ struct CpuExec {
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
         ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1];  // BatchesSums: theirs
-        for (long long b; (b = next.fetch_add(1)) < (long long)occupied_.size();) {
-          const uint32_t j = (uint32_t)b;
+        for (long long j; (j = next.fetch_add(1)) < (long long)occupied_.size();) {
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
           tile.load<UsesOldVelocity<F>::value>(grid);

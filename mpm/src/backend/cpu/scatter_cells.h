@@ -137,6 +137,7 @@ class CellScatter {
         const __m512 qik = _mm512_maskz_fmadd_ps(kRow, kOf, qz, _mm512_broadcast_f32x4((__m128)qi.v));
         const __m512 wik = _mm512_mul_ps(_mm512_set1_ps(e.w[0][i]), w2);
         for (int j = 0; j < 3; ++j) {
+          // q_ik + j qy as a multiply-add for every j (j = 0 too): apicScatterTerms's rounding
           const __m512 q = _mm512_fmadd_ps(_mm512_set1_ps((float)j), qy, qik);
           const __m512 wt = _mm512_mul_ps(_mm512_set1_ps(e.w[1][j]), wik);
           sm[3 * i + j] = _mm512_fmadd_ps(wt, q, sm[3 * i + j]);
