@@ -61,6 +61,10 @@ struct MlsMpm {
     /// gatherSummed (backend/cpu/stencil_batch.h, gather_batch.h).
     using BatchedStencil = QuadraticStencil;
     static constexpr bool kBatchedSums = true;
+    /// ... and the update after the sums for many particles at once too (backend/cpu/
+    /// update_batch.h: gatherSummed's arithmetic in lanes, integrating every substep).
+    static constexpr bool kBatchedUpdate = true;
+    MPM_HD bool integrates() const { return true; }
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       return gatherSummed(p, QuadraticStencil(geo, P.x[p]), nullptr, nodes);
@@ -77,7 +81,7 @@ struct MlsMpm {
       P.v[p] = v;
       P.C[p] = C;
       P.x[p] += dt * v;
-      P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
+      advanceDeformation(C, dt, P.F[p]);
       if (cut) advectCut(P.cut[p], C, dt);
       return finishParticle(p, P, geo, parts, nParts, nodes.nearParts());
     }

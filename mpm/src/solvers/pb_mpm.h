@@ -76,6 +76,9 @@ struct PbMpm {
     /// P.x[p]), and its APIC sums, computed for many particles at once.
     using BatchedStencil = QuadraticStencil;
     static constexpr bool kBatchedSums = true;
+    /// The update after the sums too, as MLS-MPM's (integrating on the last cycle only).
+    static constexpr bool kBatchedUpdate = true;
+    MPM_HD bool integrates() const { return integrate; }
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {
       return gatherSummed(p, QuadraticStencil(geo, P.x[p]), nullptr, nodes);
@@ -93,7 +96,7 @@ struct PbMpm {
       P.C[p] = C;
       if (integrate) {
         P.x[p] += dt * v;
-        P.F[p] = (Mat3f::identity() + dt * C) * P.F[p];
+        advanceDeformation(C, dt, P.F[p]);
         if (cut) advectCut(P.cut[p], C, dt);
         return finishParticle(p, P, geo, parts, nParts, nodes.nearParts());
       }

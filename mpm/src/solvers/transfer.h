@@ -141,15 +141,42 @@ MPM_HD ApicSums apicSums(const QuadraticStencil& st, const Nodes& nodes) {
   return ApicSums{sv, bi, bj, bk};
 }
 
+/// apicFromSums in any float type T: float for one particle, the CPU's simd::Floats for a
+/// run of particles in lanes (backend/cpu/update_batch.h), one source for both. v = sum w v_i
+/// and C = M^-1 dx (b_c - fx_c v) column by column, with b[c][r] the sums bi, bj, bk (c =
+/// 0, 1, 2) at row r, C row-major.
+template <class T>
+MPM_HD void apicAffineFromSums(const T sv[3], const T b[3][3], const T fx[3], float dx, float inertiaInv, T v[3],
+                               T C[9]) {
+  for (int r = 0; r < 3; ++r) v[r] = sv[r];
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) C[3 * r + c] = inertiaInv * (dx * (b[c][r] - fx[c] * v[r]));
+}
+
 /// v = sum w v_i and C = M^-1 sum w v_i (x_i - x_p)^T from the sums.
 MPM_HD void apicFromSums(const QuadraticStencil& st, const GridGeometry& geo, const ApicSums& sums, Vec3f& v,
                          Mat3f& C) {
-  const float dx = geo.dx;
-  v = sums.v.xyz();
-  const Vec3f fx = st.fx;
-  C = apicInverseInertia(geo) * Mat3f::fromColumns(dx * (sums.bi.xyz() - fx.x * v), dx * (sums.bj.xyz() - fx.y * v),
-                                                   dx * (sums.bk.xyz() - fx.z * v));
+  const float sv[3] = {sums.v[1], sums.v[2], sums.v[3]};
+  const float b[3][3] = {{sums.bi[1], sums.bi[2], sums.bi[3]},
+                         {sums.bj[1], sums.bj[2], sums.bj[3]},
+                         {sums.bk[1], sums.bk[2], sums.bk[3]}};
+  const float fx[3] = {st.fx.x, st.fx.y, st.fx.z};
+  float vv[3];
+  apicAffineFromSums(sv, b, fx, geo.dx, apicInverseInertia(geo), vv, &C.m[0][0]);
+  v = Vec3f{vv[0], vv[1], vv[2]};
 }
+
+/// F <- (I + dt C) F, the update of the deformation gradient over a substep, in any float
+/// type T (as apicAffineFromSums); C and F row-major.
+template <class T>
+MPM_HD void advanceDeformation(const T C[9], float dt, T F[9]) {
+  T a[9], out[9];
+  for (int e = 0; e < 9; ++e) a[e] = (e % 4 == 0 ? 1.f : 0.f) + dt * C[e];
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) out[3 * r + c] = a[3 * r] * F[c] + a[3 * r + 1] * F[3 + c] + a[3 * r + 2] * F[6 + c];
+  for (int e = 0; e < 9; ++e) F[e] = out[e];
+}
+MPM_HD void advanceDeformation(const Mat3f& C, float dt, Mat3f& F) { advanceDeformation(&C.m[0][0], dt, &F.m[0][0]); }
 
 /// APIC gather from the updated grid: v = sum w v_i and C = M^-1 sum w v_i (x_i - x_p)^T.
 template <class Nodes>

@@ -30,6 +30,7 @@
 #include "backend/cpu/stencil_batch.h"
 #include "backend/cpu/stress_batch.h"
 #include "backend/cpu/thread_team.h"
+#include "backend/cpu/update_batch.h"
 #include "backend/sim_backend.h"
 
 namespace mpm {
@@ -77,6 +78,12 @@ template <class F, class = void>
 struct BatchesSums : std::false_type {};
 template <class F>
 struct BatchesSums<F, std::void_t<decltype(F::kBatchedSums)>> : std::bool_constant<F::kBatchedSums> {};
+/// kBatchedUpdate: a G2P kernel with kBatchedSums leaves the rest of gatherSummed to the
+/// caller as well, for a run of particles at once (apicUpdateBatch, update_batch.h).
+template <class F, class = void>
+struct BatchesUpdate : std::false_type {};
+template <class F>
+struct BatchesUpdate<F, std::void_t<decltype(F::kBatchedUpdate)>> : std::bool_constant<F::kBatchedUpdate> {};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -444,7 +451,7 @@ struct CpuExec {
         BlockTile tile;
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
-        ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1];  // BatchesSums: theirs
+        ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1]{};  // BatchesSums: theirs (zeros: apicUpdateBatch reads whole vectors)
         for (long long j; (j = next.fetch_add(1)) < (long long)occupied_.size();) {
           tile.setBlock(geo_, occupied_[j]);
           tile.near = nearParts(occupied_[j]);
@@ -459,8 +466,12 @@ struct CpuExec {
               st.compute(f.geo, f.P.x, &order_[r], n);
               if constexpr (BatchesSums<F>::value) {
                 apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, tile.mv, tile.origin, sums);
-                for (int q = 0; q < n; ++q)
-                  take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), &sums[q], tile));
+                if constexpr (BatchesUpdate<F>::value) {
+                  take(apicUpdateBatch(f, &order_[r], n, st, sums, tile));
+                } else {
+                  for (int q = 0; q < n; ++q)
+                    take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), &sums[q], tile));
+                }
               } else {
                 for (int q = 0; q < n; ++q)
                   take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), nullptr, tile));

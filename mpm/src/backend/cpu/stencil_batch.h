@@ -9,6 +9,7 @@
 // twice per substep (P2G and G2P).
 #include <cstdint>
 
+#include "backend/cpu/lanes_layout.h"
 #include "backend/cpu/stress_batch.h"
 #include "grid/block_grid.h"
 
@@ -45,7 +46,7 @@ struct StencilRun {
     for (int q0 = 0; q0 < n; q0 += kLanes) {
       const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
       Floats xa[3];
-      loadPositions(x, ids + q0, lanes, xa);
+      simd::loadVec3Lanes(x, ids + q0, lanes, xa);
       for (int a = 0; a < 3; ++a) {
         const Floats d = xa[a] - geo.lower[a];
         Floats t;
@@ -82,38 +83,6 @@ struct StencilRun {
 #endif
   }
 
- private:
-#ifdef MPM_STRESS_BATCH
-  /// xa[a][l] = x[ids[l]][a]; lanes from `lanes` on repeat the first. Particles come
-  /// sorted by block (reordered every frame), so ids are mostly consecutive: then three
-  /// vector loads and shuffles instead of one insert per coordinate.
-  static void loadPositions(const Vec3f* x, const uint32_t* ids, int lanes, simd::Floats xa[3]) {
-    using simd::kLanes;
-#if defined(__GNUC__) && !defined(__clang__)
-    typedef int Ints __attribute__((vector_size(4 * kLanes)));
-    if (lanes == kLanes && ids[kLanes - 1] - ids[0] == (uint32_t)(kLanes - 1)) {
-      simd::Floats v[3];
-      __builtin_memcpy(v, &x[ids[0]], sizeof(v));
-      // lane l of axis a is float 3 l + a of the 3 kLanes: from v[0], v[1] or v[2]
-      Ints lo, hi;
-      for (int a = 0; a < 3; ++a) {
-        for (int l = 0; l < kLanes; ++l) {
-          const int e = 3 * l + a;  // 0 .. 3 kLanes - 1
-          lo[l] = e < 2 * kLanes ? e : 0;
-          hi[l] = e < 2 * kLanes ? l : e - 2 * kLanes + kLanes;
-        }
-        const simd::Floats first = __builtin_shuffle(v[0], v[1], lo);
-        xa[a] = __builtin_shuffle(first, v[2], hi);
-      }
-      return;
-    }
-#endif
-    for (int l = 0; l < kLanes; ++l) {
-      const Vec3f xl = x[ids[l < lanes ? l : 0]];
-      for (int a = 0; a < 3; ++a) xa[a][l] = xl[a];
-    }
-  }
-#endif
 };
 
 }  // namespace mpm

@@ -1,0 +1,147 @@
+#pragma once
+// Particle fields between their arrays of structures (Vec3f, Mat3f per particle) and SIMD
+// lanes (one vector per component, a particle per lane), for the CPU's batched kernels.
+// kLanes consecutive particles' fields are whole vectors in memory: then a few shuffles
+// per vector move them (GCC's two-source __builtin_shuffle, a vpermt2ps each on AVX-512)
+// instead of one scalar load or store per component and particle. Other particles, and
+// compilers without that builtin, go component by component.
+#include <cstdint>
+
+#include "backend/cpu/stress_batch.h"
+
+namespace mpm {
+#ifdef MPM_STRESS_BATCH
+namespace simd {
+
+#if defined(__GNUC__) && !defined(__clang__)
+#define MPM_LANE_SHUFFLES 1
+typedef int Ints __attribute__((vector_size(4 * kLanes)));
+
+/// out[c][l] = component c of element l of the 3 kLanes floats in[0], in[1], in[2] (kLanes
+/// triples, x y z x y z ...).
+inline void deinterleave3(const Floats in[3], Floats out[3]) {
+  for (int c = 0; c < 3; ++c) {
+    Ints lo, hi;
+    for (int l = 0; l < kLanes; ++l) {
+      const int e = 3 * l + c;  // 0 .. 3 kLanes - 1
+      lo[l] = e < 2 * kLanes ? e : 0;
+      hi[l] = e < 2 * kLanes ? l : e - 2 * kLanes + kLanes;
+    }
+    out[c] = __builtin_shuffle(__builtin_shuffle(in[0], in[1], lo), in[2], hi);
+  }
+}
+/// The inverse of deinterleave3: the triples (in[0][l], in[1][l], in[2][l]) in order.
+inline void interleave3(const Floats in[3], Floats out[3]) {
+  for (int k = 0; k < 3; ++k) {
+    Ints lo, hi;
+    for (int j = 0; j < kLanes; ++j) {
+      const int e = k * kLanes + j, c = e % 3, l = e / 3;
+      lo[j] = c == 0 ? l : c == 1 ? kLanes + l : 0;
+      hi[j] = c == 2 ? kLanes + l : j;
+    }
+    out[k] = __builtin_shuffle(__builtin_shuffle(in[0], in[1], lo), in[2], hi);
+  }
+}
+/// Transposes the kLanes x kLanes matrix rows[r][c] in place: swaps bit s of the row and
+/// column indices for s = kLanes / 2 .. 1 (two shuffles per pair of rows and bit). One
+/// template per bit, so every mask is a constant.
+template <int s = kLanes / 2>
+inline void transposeLanes(Floats rows[kLanes]) {
+  Ints keep, swap;
+#pragma GCC unroll 16
+  for (int c = 0; c < kLanes; ++c) {
+    keep[c] = (c & s) ? kLanes + c - s : c;
+    swap[c] = (c & s) ? kLanes + c : c + s;
+  }
+#pragma GCC unroll 16
+  for (int i = 0; i < kLanes; ++i) {
+    if (i & s) continue;
+    const Floats a = rows[i], b = rows[i + s];
+    rows[i] = __builtin_shuffle(a, b, keep);
+    rows[i + s] = __builtin_shuffle(a, b, swap);
+  }
+  if constexpr (s > 1) transposeLanes<s / 2>(rows);
+}
+#endif
+
+/// Whether ids[0 .. kLanes) are kLanes consecutive particles (their fields whole vectors).
+inline bool consecutive(const uint32_t* ids, int lanes) {
+  return lanes == kLanes && ids[kLanes - 1] - ids[0] == (uint32_t)(kLanes - 1);
+}
+
+/// xa[a][l] = x[ids[l]][a]; lanes from `lanes` on repeat the first. Particles come sorted
+/// by block (reordered every frame), so ids are mostly consecutive.
+inline void loadVec3Lanes(const Vec3f* x, const uint32_t* ids, int lanes, Floats xa[3]) {
+#ifdef MPM_LANE_SHUFFLES
+  if (consecutive(ids, lanes)) {
+    Floats v[3];
+    __builtin_memcpy(v, &x[ids[0]], sizeof(v));
+    deinterleave3(v, xa);
+    return;
+  }
+#endif
+  for (int l = 0; l < kLanes; ++l) {
+    const Vec3f xl = x[ids[l < lanes ? l : 0]];
+    for (int a = 0; a < 3; ++a) xa[a][l] = xl[a];
+  }
+}
+/// x[ids[l]] = (xa[0][l], xa[1][l], xa[2][l]) for l < lanes.
+inline void storeVec3Lanes(const Floats xa[3], const uint32_t* ids, int lanes, Vec3f* x) {
+#ifdef MPM_LANE_SHUFFLES
+  if (consecutive(ids, lanes)) {
+    Floats v[3];
+    interleave3(xa, v);
+    __builtin_memcpy(&x[ids[0]], v, sizeof(v));
+    return;
+  }
+#endif
+  for (int l = 0; l < lanes; ++l) x[ids[l]] = Vec3f{xa[0][l], xa[1][l], xa[2][l]};
+}
+
+/// f[3 r + c][l] = M[ids[l]].m[r][c]; `fill` in the lanes from `lanes` on. Consecutive
+/// particles' 9 kLanes floats are 3 kLanes rows of 3: deinterleaved once into the columns
+/// (rows of all particles), each column once more into its rows.
+inline void loadMat3Lanes(const Mat3f* M, const uint32_t* ids, int lanes, const Mat3f& fill, Floats f[9]) {
+#ifdef MPM_LANE_SHUFFLES
+  if (consecutive(ids, lanes)) {
+    Floats v[9], col[3][3];  // col[c][k]: entry c of the rows 16 k .. (kLanes k ..)
+    __builtin_memcpy(v, &M[ids[0]], sizeof(v));
+    for (int k = 0; k < 3; ++k) {
+      Floats t[3];
+      deinterleave3(&v[3 * k], t);
+      for (int c = 0; c < 3; ++c) col[c][k] = t[c];
+    }
+    for (int c = 0; c < 3; ++c) {
+      Floats r[3];
+      deinterleave3(col[c], r);
+      for (int i = 0; i < 3; ++i) f[3 * i + c] = r[i];
+    }
+    return;
+  }
+#endif
+  loadLanes(M, ids, lanes, fill, f);
+}
+/// M[ids[l]].m[r][c] = f[3 r + c][l] for l < lanes (loadMat3Lanes backwards).
+inline void storeMat3Lanes(const Floats f[9], const uint32_t* ids, int lanes, Mat3f* M) {
+#ifdef MPM_LANE_SHUFFLES
+  if (consecutive(ids, lanes)) {
+    Floats col[3][3], v[9];
+    for (int c = 0; c < 3; ++c) {
+      const Floats r[3] = {f[c], f[3 + c], f[6 + c]};
+      interleave3(r, col[c]);
+    }
+    for (int k = 0; k < 3; ++k) {
+      const Floats t[3] = {col[0][k], col[1][k], col[2][k]};
+      interleave3(t, &v[3 * k]);
+    }
+    __builtin_memcpy(&M[ids[0]], v, sizeof(v));
+    return;
+  }
+#endif
+  for (int l = 0; l < lanes; ++l)
+    for (int e = 0; e < 9; ++e) M[ids[l]].m[e / 3][e % 3] = f[e][l];
+}
+
+}  // namespace simd
+#endif
+}  // namespace mpm
