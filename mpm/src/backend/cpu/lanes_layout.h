@@ -13,13 +13,16 @@ namespace mpm {
 #ifdef MPM_STRESS_BATCH
 namespace simd {
 
+// inlined always: GCC had left some out of line (the vectors then go through memory)
+#define MPM_LANES_INLINE inline __attribute__((always_inline))
+
 #if defined(__GNUC__) && !defined(__clang__)
 #define MPM_LANE_SHUFFLES 1
 typedef int Ints __attribute__((vector_size(4 * kLanes)));
 
 /// out[c][l] = component c of element l of the 3 kLanes floats in[0], in[1], in[2] (kLanes
 /// triples, x y z x y z ...).
-inline void deinterleave3(const Floats in[3], Floats out[3]) {
+MPM_LANES_INLINE void deinterleave3(const Floats in[3], Floats out[3]) {
   for (int c = 0; c < 3; ++c) {
     Ints lo, hi;
     for (int l = 0; l < kLanes; ++l) {
@@ -31,7 +34,7 @@ inline void deinterleave3(const Floats in[3], Floats out[3]) {
   }
 }
 /// The inverse of deinterleave3: the triples (in[0][l], in[1][l], in[2][l]) in order.
-inline void interleave3(const Floats in[3], Floats out[3]) {
+MPM_LANES_INLINE void interleave3(const Floats in[3], Floats out[3]) {
   for (int k = 0; k < 3; ++k) {
     Ints lo, hi;
     for (int j = 0; j < kLanes; ++j) {
@@ -46,7 +49,7 @@ inline void interleave3(const Floats in[3], Floats out[3]) {
 /// column indices for s = kLanes / 2 .. 1 (two shuffles per pair of rows and bit). One
 /// template per bit, so every mask is a constant.
 template <int s = kLanes / 2>
-inline void transposeLanes(Floats rows[kLanes]) {
+MPM_LANES_INLINE void transposeLanes(Floats rows[kLanes]) {
   Ints keep, swap;
 #pragma GCC unroll 16
   for (int c = 0; c < kLanes; ++c) {
@@ -65,13 +68,13 @@ inline void transposeLanes(Floats rows[kLanes]) {
 #endif
 
 /// Whether ids[0 .. kLanes) are kLanes consecutive particles (their fields whole vectors).
-inline bool consecutive(const uint32_t* ids, int lanes) {
+MPM_LANES_INLINE bool consecutive(const uint32_t* ids, int lanes) {
   return lanes == kLanes && ids[kLanes - 1] - ids[0] == (uint32_t)(kLanes - 1);
 }
 
 /// xa[a][l] = x[ids[l]][a]; lanes from `lanes` on repeat the first. Particles come sorted
 /// by block (reordered every frame), so ids are mostly consecutive.
-inline void loadVec3Lanes(const Vec3f* x, const uint32_t* ids, int lanes, Floats xa[3]) {
+MPM_LANES_INLINE void loadVec3Lanes(const Vec3f* x, const uint32_t* ids, int lanes, Floats xa[3]) {
 #ifdef MPM_LANE_SHUFFLES
   if (consecutive(ids, lanes)) {
     Floats v[3];
@@ -86,7 +89,7 @@ inline void loadVec3Lanes(const Vec3f* x, const uint32_t* ids, int lanes, Floats
   }
 }
 /// x[ids[l]] = (xa[0][l], xa[1][l], xa[2][l]) for l < lanes.
-inline void storeVec3Lanes(const Floats xa[3], const uint32_t* ids, int lanes, Vec3f* x) {
+MPM_LANES_INLINE void storeVec3Lanes(const Floats xa[3], const uint32_t* ids, int lanes, Vec3f* x) {
 #ifdef MPM_LANE_SHUFFLES
   if (consecutive(ids, lanes)) {
     Floats v[3];
@@ -98,31 +101,40 @@ inline void storeVec3Lanes(const Floats xa[3], const uint32_t* ids, int lanes, V
   for (int l = 0; l < lanes; ++l) x[ids[l]] = Vec3f{xa[0][l], xa[1][l], xa[2][l]};
 }
 
-/// f[3 r + c][l] = M[ids[l]].m[r][c]; `fill` in the lanes from `lanes` on. Consecutive
-/// particles' 9 kLanes floats are 3 kLanes rows of 3: deinterleaved once into the columns
-/// (rows of all particles), each column once more into its rows.
-inline void loadMat3Lanes(const Mat3f* M, const uint32_t* ids, int lanes, const Mat3f& fill, Floats f[9]) {
+/// f[3 r + c][l] = M[l].m[r][c] for kLanes consecutive matrices. Their 9 kLanes floats
+/// are 3 kLanes rows of 3: deinterleaved once into the columns (rows of all matrices), each
+/// column once more into its rows.
+MPM_LANES_INLINE void loadMat3Run(const Mat3f* M, Floats f[9]) {
 #ifdef MPM_LANE_SHUFFLES
+  Floats v[9], col[3][3];  // col[c][k]: entry c of the rows kLanes k .. kLanes k + kLanes - 1
+  __builtin_memcpy(v, M, sizeof(v));
+  for (int k = 0; k < 3; ++k) {
+    Floats t[3];
+    deinterleave3(&v[3 * k], t);
+    for (int c = 0; c < 3; ++c) col[c][k] = t[c];
+  }
+  for (int c = 0; c < 3; ++c) {
+    Floats r[3];
+    deinterleave3(col[c], r);
+    for (int i = 0; i < 3; ++i) f[3 * i + c] = r[i];
+  }
+#else
+  for (int l = 0; l < kLanes; ++l)
+    for (int e = 0; e < 9; ++e) f[e][l] = M[l].m[e / 3][e % 3];
+#endif
+}
+
+/// f[3 r + c][l] = M[ids[l]].m[r][c]; `fill` in the lanes from `lanes` on.
+MPM_LANES_INLINE void loadMat3Lanes(const Mat3f* M, const uint32_t* ids, int lanes, const Mat3f& fill, Floats f[9]) {
   if (consecutive(ids, lanes)) {
-    Floats v[9], col[3][3];  // col[c][k]: entry c of the rows 16 k .. (kLanes k ..)
-    __builtin_memcpy(v, &M[ids[0]], sizeof(v));
-    for (int k = 0; k < 3; ++k) {
-      Floats t[3];
-      deinterleave3(&v[3 * k], t);
-      for (int c = 0; c < 3; ++c) col[c][k] = t[c];
-    }
-    for (int c = 0; c < 3; ++c) {
-      Floats r[3];
-      deinterleave3(col[c], r);
-      for (int i = 0; i < 3; ++i) f[3 * i + c] = r[i];
-    }
+    loadMat3Run(&M[ids[0]], f);
     return;
   }
-#endif
   loadLanes(M, ids, lanes, fill, f);
 }
+
 /// M[ids[l]].m[r][c] = f[3 r + c][l] for l < lanes (loadMat3Lanes backwards).
-inline void storeMat3Lanes(const Floats f[9], const uint32_t* ids, int lanes, Mat3f* M) {
+MPM_LANES_INLINE void storeMat3Lanes(const Floats f[9], const uint32_t* ids, int lanes, Mat3f* M) {
 #ifdef MPM_LANE_SHUFFLES
   if (consecutive(ids, lanes)) {
     Floats col[3][3], v[9];
