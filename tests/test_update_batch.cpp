@@ -104,7 +104,8 @@ struct G2PCase {
       for (int e = 0; e < 9; ++e) F[p].m[e / 3][e % 3] += 0.2f * u(rng), C[p].m[e / 3][e % 3] = u(rng);
       volume0[p] = 1e-4f * (1.f + 0.5f * u(rng));
     }
-    x[40] = Vec3f{-9.f, 0.f, 0.f};  // a stray (its vector stored lane by lane)
+    x[40] = Vec3f{-9.f, 0.f, 0.f};  // a stray (its vector stored lane by lane), at rest:
+    v[40] = Vec3f{};                 // the fastest particle is one the lanes finish
     cut[5].normal = Vec3f{0.f, 1.f, 0.f};  // a cut particle
     cut[5].offset = 0.01f;
     F[20].m[1][2] = std::numeric_limits<float>::quiet_NaN();  // reported from whole vectors

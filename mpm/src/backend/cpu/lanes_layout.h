@@ -144,6 +144,21 @@ MPM_LANES_INLINE void loadMat3Lanes(const Mat3f* M, const uint32_t* ids, int lan
   loadLanes(M, ids, lanes, fill, f);
 }
 
+/// s[ids[l]] = a[l] for l < lanes.
+MPM_LANES_INLINE void storeFloatLanes(const Floats& a, const uint32_t* ids, int lanes, float* s) {
+  if (consecutive(ids, lanes)) {
+    __builtin_memcpy(&s[ids[0]], &a, sizeof(a));
+    return;
+  }
+  for (int l = 0; l < lanes; ++l) s[ids[l]] = a[l];
+}
+/// Bit l set where lane l of m is (nonzero).
+MPM_LANES_INLINE uint32_t laneBits(const Mask& m) {
+  uint32_t bits = 0;
+  for (int l = 0; l < kLanes; ++l) bits |= (m[l] != 0 ? 1u : 0u) << l;
+  return bits;
+}
+
 /// M[ids[l]].m[r][c] = f[3 r + c][l] for l < lanes (loadMat3Lanes backwards).
 MPM_LANES_INLINE void storeMat3Lanes(const Floats f[9], const uint32_t* ids, int lanes, Mat3f* M) {
 #ifdef MPM_LANE_SHUFFLES

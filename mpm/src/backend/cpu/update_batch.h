@@ -43,6 +43,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
   const float dt = f.dt;
   const NearParts near = tile.nearParts();
   static_assert(sizeof(ApicSums) == 16 * sizeof(float) && 16 % kLanes == 0, "a particle's sums: whole vectors");
+  Floats best = Floats{};  // per lane, the fastest particle's v.v
   for (int q0 = 0; q0 < n; q0 += kLanes) {
     const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
     const uint32_t* id = ids + q0;
@@ -128,6 +129,26 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
         simd::storeMat3Lanes(F, id, lanes, P.F);
       }
     }
+    // the step check of the lanes this function finished: the fastest, the first bad
+    Mask mine = ~own;
+    for (int l = lanes; l < kLanes; ++l) mine[l] = 0;
+    best = (mine & (best < speed2)) ? speed2 : best;  // std::max's sequence: NaN speeds ignored
+    const uint32_t badBits = simd::laneBits(mine & bad);
+    for (uint32_t bits = badBits; bits; bits &= bits - 1) take(0.f, id[__builtin_ctz(bits)]);
+    // the particles that may touch a part walk its list; the others are left untouched
+    Floats touch = Floats{};
+    const uint32_t pushBits = integrate ? simd::laneBits(mine & pushed) : 0u;
+    for (uint32_t bits = pushBits; bits; bits &= bits - 1) {
+      const int l = __builtin_ctz(bits);
+      const uint32_t p = id[l];
+      if (anyOwn) P.x[p] = Vec3f{x[0][l], x[1][l], x[2][l]};  // stored lane by lane below
+      touch[l] = pushOutOfParts(P.x[p], f.parts, f.nParts, P.volume0[p], near) ? 1.f : 0.f;
+      if (anyOwn) for (int a = 0; a < 3; ++a) x[a][l] = P.x[p][a];
+    }
+    if (!anyOwn) {
+      if (integrate) simd::storeFloatLanes(touch, id, lanes, P.touch);
+      continue;
+    }
     for (int l = 0; l < lanes; ++l) {
       const uint32_t p = id[l];
       if (own[l]) {
@@ -135,19 +156,15 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
         take(c.maxSpeed2, c.firstBadParticle);
         continue;
       }
-      take(speed2[l], bad[l] ? p : 0xffffffffu);
-      if (anyOwn) {
-        P.v[p] = Vec3f{v[0][l], v[1][l], v[2][l]};
-        for (int e = 0; e < 9; ++e) P.C[p].m[e / 3][e % 3] = C[e][l];
-        if (integrate) {
-          P.x[p] = Vec3f{x[0][l], x[1][l], x[2][l]};
-          for (int e = 0; e < 9; ++e) P.F[p].m[e / 3][e % 3] = F[e][l];
-        }
-      }
-      if (integrate)
-        P.touch[p] = pushed[l] && pushOutOfParts(P.x[p], f.parts, f.nParts, P.volume0[p], near) ? 1.f : 0.f;
+      P.v[p] = Vec3f{v[0][l], v[1][l], v[2][l]};
+      for (int e = 0; e < 9; ++e) P.C[p].m[e / 3][e % 3] = C[e][l];
+      if (!integrate) continue;
+      P.x[p] = Vec3f{x[0][l], x[1][l], x[2][l]};
+      for (int e = 0; e < 9; ++e) P.F[p].m[e / 3][e % 3] = F[e][l];
+      P.touch[p] = touch[l];
     }
   }
+  for (int l = 0; l < kLanes; ++l) take(best[l], 0xffffffffu);
 #else
   for (int q = 0; q < n; ++q) {
     const StepCheck c = f.gatherSummed(ids[q], st.template at<QuadraticStencil>(q), &sums[q], tile);
