@@ -144,18 +144,23 @@ MPM_LANES_INLINE void loadMat3Lanes(const Mat3f* M, const uint32_t* ids, int lan
   loadLanes(M, ids, lanes, fill, f);
 }
 
-/// s[ids[l]] = a[l] for l < lanes.
-MPM_LANES_INLINE void storeFloatLanes(const Floats& a, const uint32_t* ids, int lanes, float* s) {
-  if (consecutive(ids, lanes)) {
-    __builtin_memcpy(&s[ids[0]], &a, sizeof(a));
-    return;
-  }
-  for (int l = 0; l < lanes; ++l) s[ids[l]] = a[l];
+/// -1 in lanes 0 .. n - 1, 0 in the others.
+MPM_LANES_INLINE Mask lanesBelow(int n) {
+  static_assert(kLanes <= 16, "the index table below");
+  static constexpr int kIndex[16] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+  Mask index;
+  __builtin_memcpy(&index, kIndex, sizeof(index));
+  return index < n;
 }
 /// Bit l set where lane l of m is (nonzero).
+/// The lanes are read from an array: reading them from the vector in this loop, GCC 12 with
+/// -fsanitize=undefined at -O2 returned every bit set for {-1, 0, 0, 0} (reproduced in a
+/// ten-line program; the CI's sanitized build).
 MPM_LANES_INLINE uint32_t laneBits(const Mask& m) {
+  int lane[kLanes];
+  __builtin_memcpy(lane, &m, sizeof(lane));
   uint32_t bits = 0;
-  for (int l = 0; l < kLanes; ++l) bits |= (m[l] != 0 ? 1u : 0u) << l;
+  for (int l = 0; l < kLanes; ++l) bits |= (lane[l] != 0 ? 1u : 0u) << l;
   return bits;
 }
 

@@ -54,8 +54,13 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       __builtin_memcpy(&b, &st.base[a][q0], sizeof(b));
       own |= ~((b >= 0) & (b + 2 <= geo.cells[a]));  // QuadraticStencil::inside
     }
-    if (f.cuts)
-      for (int l = 0; l < lanes; ++l) own[l] |= isCut(P.cut[id[l]]) ? -1 : 0;
+    if (f.cuts) {
+      int cut[kLanes] = {};
+      for (int l = 0; l < lanes; ++l) cut[l] = isCut(P.cut[id[l]]) ? -1 : 0;
+      Mask c;
+      __builtin_memcpy(&c, cut, sizeof(c));
+      own |= c;
+    }
     bool anyOwn = false;
     for (int l = 0; l < lanes; ++l) anyOwn = anyOwn || own[l];
     // the sums in lanes: particle q's ApicSums are 16 floats, 16 / kLanes rows of a
@@ -130,38 +135,38 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       }
     }
     // the step check of the lanes this function finished: the fastest, the first bad
-    Mask mine = ~own;
-    for (int l = lanes; l < kLanes; ++l) mine[l] = 0;
+    const Mask mine = ~own & simd::lanesBelow(lanes);
     best = (mine & (best < speed2)) ? speed2 : best;  // std::max's sequence: NaN speeds ignored
     const uint32_t badBits = simd::laneBits(mine & bad);
     for (uint32_t bits = badBits; bits; bits &= bits - 1) take(0.f, id[__builtin_ctz(bits)]);
-    // the particles that may touch a part walk its list; the others are left untouched
-    Floats touch = Floats{};
-    const uint32_t pushBits = integrate ? simd::laneBits(mine & pushed) : 0u;
-    for (uint32_t bits = pushBits; bits; bits &= bits - 1) {
+    if (anyOwn)
+      for (int l = 0; l < lanes; ++l) {
+        const uint32_t p = id[l];
+        if (own[l]) {
+          const StepCheck c = f.gatherSummed(p, st.template at<QuadraticStencil>(q0 + l), &sums[q0 + l], tile);
+          take(c.maxSpeed2, c.firstBadParticle);
+          continue;
+        }
+        P.v[p] = Vec3f{v[0][l], v[1][l], v[2][l]};
+        for (int e = 0; e < 9; ++e) P.C[p].m[e / 3][e % 3] = C[e][l];
+        if (!integrate) continue;
+        P.x[p] = Vec3f{x[0][l], x[1][l], x[2][l]};
+        for (int e = 0; e < 9; ++e) P.F[p].m[e / 3][e % 3] = F[e][l];
+      }
+    if (!integrate) continue;
+    // the particles that may touch a part walk its list (their x already stored); the
+    // others are left untouched
+    float touch[kLanes] = {};
+    for (uint32_t bits = simd::laneBits(mine & pushed); bits; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
       const uint32_t p = id[l];
-      if (anyOwn) P.x[p] = Vec3f{x[0][l], x[1][l], x[2][l]};  // stored lane by lane below
       touch[l] = pushOutOfParts(P.x[p], f.parts, f.nParts, P.volume0[p], near) ? 1.f : 0.f;
-      if (anyOwn) for (int a = 0; a < 3; ++a) x[a][l] = P.x[p][a];
     }
-    if (!anyOwn) {
-      if (integrate) simd::storeFloatLanes(touch, id, lanes, P.touch);
-      continue;
-    }
-    for (int l = 0; l < lanes; ++l) {
-      const uint32_t p = id[l];
-      if (own[l]) {
-        const StepCheck c = f.gatherSummed(p, st.template at<QuadraticStencil>(q0 + l), &sums[q0 + l], tile);
-        take(c.maxSpeed2, c.firstBadParticle);
-        continue;
-      }
-      P.v[p] = Vec3f{v[0][l], v[1][l], v[2][l]};
-      for (int e = 0; e < 9; ++e) P.C[p].m[e / 3][e % 3] = C[e][l];
-      if (!integrate) continue;
-      P.x[p] = Vec3f{x[0][l], x[1][l], x[2][l]};
-      for (int e = 0; e < 9; ++e) P.F[p].m[e / 3][e % 3] = F[e][l];
-      P.touch[p] = touch[l];
+    if (!anyOwn && simd::consecutive(id, lanes)) {
+      __builtin_memcpy(&P.touch[id[0]], touch, sizeof(touch));
+    } else {
+      for (int l = 0; l < lanes; ++l)
+        if (!own[l]) P.touch[id[l]] = touch[l];
     }
   }
   for (int l = 0; l < kLanes; ++l) take(best[l], 0xffffffffu);
