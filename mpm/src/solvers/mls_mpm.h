@@ -61,9 +61,8 @@ struct MlsMpm {
     /// gatherSummed (backend/cpu/stencil_batch.h, gather_batch.h).
     using BatchedStencil = QuadraticStencil;
     static constexpr bool kBatchedSums = true;
-    /// ... and the update after the sums for many particles at once too (backend/cpu/
-    /// update_batch.h: gatherSummed's arithmetic in lanes, integrating every substep).
-    static constexpr bool kBatchedUpdate = true;
+    /// ... and the rest of gatherSummed for many particles at once too (backend/cpu/
+    /// update_batch.h), which asks whether this G2P moves the particles and advances F.
     MPM_HD bool integrates() const { return true; }
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {

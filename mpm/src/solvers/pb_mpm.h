@@ -76,8 +76,7 @@ struct PbMpm {
     /// P.x[p]), and its APIC sums, computed for many particles at once.
     using BatchedStencil = QuadraticStencil;
     static constexpr bool kBatchedSums = true;
-    /// The update after the sums too, as MLS-MPM's (integrating on the last cycle only).
-    static constexpr bool kBatchedUpdate = true;
+    /// The rest of gatherSummed in lanes too, as MLS-MPM's (integrating on the last cycle).
     MPM_HD bool integrates() const { return integrate; }
     template <class Nodes>
     MPM_HD StepCheck operator()(uint32_t p, const Nodes& nodes) const {

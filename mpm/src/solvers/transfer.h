@@ -189,11 +189,18 @@ MPM_HD void apicGather(const QuadraticStencil& st, const GridGeometry& geo, cons
 /// then check it (state finite, stencil on the grid) and report its speed. `near`: the
 /// parts near the particle's block, from the node accessor (Nodes::nearParts; the CPU's
 /// block tile has them, the GPU tries every part).
+/// What finishParticle checks is finite, in any float type T (the CPU's lanes take it too,
+/// backend/cpu/update_batch.h): x, v and tr F in one sum, so one NaN or inf in any shows.
+template <class T>
+MPM_HD T stateSum(const T x[3], const T v[3], const T F[9]) {
+  return x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + (F[0] + F[4] + F[8]);
+}
+
 MPM_HD StepCheck finishParticle(uint32_t p, const ParticleView& P, const GridGeometry& geo, const PartView* parts,
                                 int nParts, const NearParts& near) {
   StepCheck c;
   const Vec3f x = P.x[p], v = P.v[p];
-  const float sum = x.x + x.y + x.z + v.x + v.y + v.z + trace(P.F[p]);
+  const float sum = stateSum(&x.x, &v.x, &P.F[p].m[0][0]);
   if (!isFinite(sum) || !geo.stencilInside(x)) c.firstBadParticle = p;
   P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, P.volume0[p], near) ? 1.f : 0.f;
   c.maxSpeed2 = dot(v, v);

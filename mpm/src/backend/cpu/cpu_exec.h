@@ -73,17 +73,13 @@ struct BatchesStencil<F, std::void_t<typename F::BatchedStencil>> : std::true_ty
 };
 /// kBatchedSums: a G2P kernel with a BatchedStencil takes its APIC sums, apicSums(stencil,
 /// nodes), from the caller too (gatherSummed(p, stencil, &sums, nodes)), computed for a run
-/// of particles at once (apicSumsBatch).
+/// of particles at once (apicSumsBatch), and the rest of gatherSummed as well, in lanes
+/// (apicUpdateBatch, update_batch.h: the kernel names with integrates() whether it moves
+/// the particles).
 template <class F, class = void>
 struct BatchesSums : std::false_type {};
 template <class F>
 struct BatchesSums<F, std::void_t<decltype(F::kBatchedSums)>> : std::bool_constant<F::kBatchedSums> {};
-/// kBatchedUpdate: a G2P kernel with kBatchedSums leaves the rest of gatherSummed to the
-/// caller as well, for a run of particles at once (apicUpdateBatch, update_batch.h).
-template <class F, class = void>
-struct BatchesUpdate : std::false_type {};
-template <class F>
-struct BatchesUpdate<F, std::void_t<decltype(F::kBatchedUpdate)>> : std::bool_constant<F::kBatchedUpdate> {};
 template <class F, class = void>
 struct UsesOldVelocity : std::true_type {};
 template <class F>
@@ -466,12 +462,7 @@ struct CpuExec {
               st.compute(f.geo, f.P.x, &order_[r], n);
               if constexpr (BatchesSums<F>::value) {
                 apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, tile.mv, tile.origin, sums);
-                if constexpr (BatchesUpdate<F>::value) {
-                  take(apicUpdateBatch(f, &order_[r], n, st, sums, tile));
-                } else {
-                  for (int q = 0; q < n; ++q)
-                    take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), &sums[q], tile));
-                }
+                take(apicUpdateBatch(f, &order_[r], n, st, sums, tile));
               } else {
                 for (int q = 0; q < n; ++q)
                   take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), nullptr, tile));

@@ -20,10 +20,9 @@
 namespace mpm {
 
 /// Runs G2P kernel f's end of gatherSummed(ids[q], st.at(q), &sums[q], tile) for q < n
-/// (sums as apicSumsBatch left them) and returns the particles' StepCheck together. The
-/// kernel names what it does with kBatchedUpdate and integrates(): v and C always, with
-/// integrates() also x += dt v, F <- (I + dt C) F and finishParticle; without, the check
-/// of v.v + tr C.
+/// (sums as apicSumsBatch left them) and returns the particles' StepCheck together: v and
+/// C always, with the kernel's integrates() also x += dt v, F <- (I + dt C) F and
+/// finishParticle; without, the check of v.v + tr C.
 template <class G2P, class Tile, int kRun>
 StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const StencilRun<kRun>& st,
                           const ApicSums* sums, const Tile& tile) {
@@ -61,8 +60,9 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       __builtin_memcpy(&c, cut, sizeof(c));
       own |= c;
     }
-    bool anyOwn = false;
-    for (int l = 0; l < lanes; ++l) anyOwn = anyOwn || own[l];
+    const Mask valid = simd::lanesBelow(lanes);
+    const uint32_t ownBits = simd::laneBits(own & valid);
+    const bool anyOwn = ownBits != 0;
     // the sums in lanes: particle q's ApicSums are 16 floats, 16 / kLanes rows of a
     // kLanes x kLanes transpose each (the lanes past n read sums left from before: unused)
     Floats field[16];
@@ -94,7 +94,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       for (int a = 0; a < 3; ++a) x[a] = x[a] + dt * v[a];
       advanceDeformation(C, dt, F);
       // finishParticle's check: state finite, stencil on the grid (stencilInside)
-      const Floats sum = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + (F[0] + F[4] + F[8]);
+      const Floats sum = stateSum(x, v, F);
       Mask inside = sum - sum == 0.f;
       for (int a = 0; a < 3; ++a) {
         const Floats d = x[a] - geo.lower[a];
@@ -135,14 +135,14 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       }
     }
     // the step check of the lanes this function finished: the fastest, the first bad
-    const Mask mine = ~own & simd::lanesBelow(lanes);
+    const Mask mine = ~own & valid;
     best = (mine & (best < speed2)) ? speed2 : best;  // std::max's sequence: NaN speeds ignored
     const uint32_t badBits = simd::laneBits(mine & bad);
     for (uint32_t bits = badBits; bits; bits &= bits - 1) take(0.f, id[__builtin_ctz(bits)]);
     if (anyOwn)
       for (int l = 0; l < lanes; ++l) {
         const uint32_t p = id[l];
-        if (own[l]) {
+        if (ownBits >> l & 1u) {
           const StepCheck c = f.gatherSummed(p, st.template at<QuadraticStencil>(q0 + l), &sums[q0 + l], tile);
           take(c.maxSpeed2, c.firstBadParticle);
           continue;
@@ -166,7 +166,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       __builtin_memcpy(&P.touch[id[0]], touch, sizeof(touch));
     } else {
       for (int l = 0; l < lanes; ++l)
-        if (!own[l]) P.touch[id[l]] = touch[l];
+        if (!(ownBits >> l & 1u)) P.touch[id[l]] = touch[l];
     }
   }
   for (int l = 0; l < kLanes; ++l) take(best[l], 0xffffffffu);
