@@ -129,7 +129,7 @@ TEST(FixedCorotated, BatchedStressMatchesPerParticle) {
   }
 }
 
-#ifdef MPM_STRESS_BATCH
+#ifdef MPM_CPU_LANES
 // J^-2/3 of the batched Neo-Hookean stress is Newton's iteration from a guess made of the
 // exponent bits: over 60 decades of x it must give 1 / cbrt(x) to a few float roundings,
 // and mark the lanes it cannot take (zero, negative, huge, NaN).

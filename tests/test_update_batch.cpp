@@ -24,7 +24,7 @@ bool sameBits(float a, float b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 bool sameBits(const Vec3f& a, const Vec3f& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 bool sameBits(const Mat3f& a, const Mat3f& b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
-#ifdef MPM_STRESS_BATCH
+#ifdef MPM_CPU_LANES
 // Loading kLanes particles' Vec3f and Mat3f into lanes and storing them back: the lanes
 // hold each particle's components (consecutive ids through the shuffles, others one by
 // one, and a partial vector with the fill), and a store writes exactly the particles named.

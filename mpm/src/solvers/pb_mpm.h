@@ -45,13 +45,15 @@ struct PbMpm {
     /// the CPU computes it for many particles at once (backend/cpu/stress_batch.h) and
     /// hands it to scatterProjected; the device calls operator().
     static constexpr bool kBatchedProjection = true;
+    /// Likewise its stencil, QuadraticStencil(geo, P.x[p]) (backend/cpu/stencil_batch.h).
+    using BatchedStencil = QuadraticStencil;
     template <class Nodes>
     MPM_HD void operator()(uint32_t p, Nodes& nodes) const {
-      scatterProjected(p, pbProjectedVelocityGradient(P.F[p], P.C[p], dt, relaxation, rigidity), nodes);
+      scatterProjected(p, QuadraticStencil(geo, P.x[p]),
+                       pbProjectedVelocityGradient(P.F[p], P.C[p], dt, relaxation, rigidity), nodes);
     }
     template <class Nodes>
-    MPM_HD void scatterProjected(uint32_t p, const Mat3f& Cc, Nodes& nodes) const {
-      const QuadraticStencil st(geo, P.x[p]);
+    MPM_HD void scatterProjected(uint32_t p, const QuadraticStencil& st, const Mat3f& Cc, Nodes& nodes) const {
       if (!st.inside(geo)) return;  // a stray: reported by G2P, never written
       const float m = P.mass[p];
       const Vec3f mv = push ? m * P.v[p] + push[p] : m * P.v[p];

@@ -395,7 +395,9 @@ struct CpuExec {
         thread_local CellScatter cells;  // grows to the largest block once per thread
         tile.cells = &cells;
         Mat3f tau[kStressRun];  // BatchesStress / BatchesProjection: the next particles' tau or C_c
-        static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value, "a batched stencil comes with the stress");
+        static_assert(!BatchesStencil<F>::value || BatchesStress<F>::value || BatchesProjection<F>::value,
+                      "a batched stencil comes with the stress or the projection");
+        static_assert(!BatchesProjection<F>::value || BatchesStencil<F>::value, "the projection comes with the stencil");
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStressRun> st;  // BatchesStencil: their stencils
         for (int colour = 0; colour < 8; ++colour) {
@@ -408,18 +410,20 @@ struct CpuExec {
             if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
               for (uint32_t r = start_[j]; r < start_[j + 1];) {
                 const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
-                if constexpr (BatchesStress<F>::value) {
+                if constexpr (BatchesStress<F>::value)
                   kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
-                  if constexpr (BatchesStencil<F>::value) {
-                    st.compute(f.geo, f.P.x, &order_[r], n);
-                    for (int q = 0; q < n; ++q)
+                else
+                  pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
+                if constexpr (BatchesStencil<F>::value) {
+                  st.compute(f.geo, f.P.x, &order_[r], n);
+                  for (int q = 0; q < n; ++q) {
+                    if constexpr (BatchesStress<F>::value)
                       f.scatterStressed(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
-                  } else {
-                    for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+                    else
+                      f.scatterProjected(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
                   }
                 } else {
-                  pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
-                  for (int q = 0; q < n; ++q) f.scatterProjected(order_[r + q], tau[q], tile);
+                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
                 }
                 r += n;
               }

@@ -24,7 +24,7 @@ namespace mpm {
 template <int kEdge, int kRun>
 void apicSumsBatch(const StencilRun<kRun>& st, int n, const GridGeometry& geo, const Float4* mv, const int origin[3],
                    ApicSums* out) {
-#if defined(MPM_STRESS_BATCH) && (defined(__clang__) || __GNUC__ >= 12)
+#if defined(MPM_CPU_LANES) && (defined(__clang__) || __GNUC__ >= 12)
   using simd::Floats;
   constexpr int kPer = simd::kLanes / 4;  // particles per vector
   typedef float F4 __attribute__((vector_size(16)));

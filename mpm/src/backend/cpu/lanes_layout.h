@@ -1,17 +1,43 @@
 #pragma once
-// Particle fields between their arrays of structures (Vec3f, Mat3f per particle) and SIMD
-// lanes (one vector per component, a particle per lane), for the CPU's batched kernels.
-// kLanes consecutive particles' fields are whole vectors in memory: then a few shuffles
-// per vector move them (GCC's two-source __builtin_shuffle, a vpermt2ps each on AVX-512)
-// instead of one scalar load or store per component and particle. Other particles, and
-// compilers without that builtin, go component by component.
+// What a SIMD lane is on the CPU, and particle fields between their arrays of structures
+// (Vec3f, Mat3f per particle) and lanes (one vector per component, a particle per lane),
+// for the CPU's batched kernels. kLanes consecutive particles' fields are whole vectors in
+// memory: then a few shuffles per vector move them (GCC's two-source __builtin_shuffle, a
+// vpermt2ps each on AVX-512) instead of one scalar load or store per component and
+// particle. Other particles, and compilers without that builtin, go component by
+// component. Host only (GCC / Clang vector extensions, MPM_CPU_LANES); elsewhere every
+// particle takes the per-particle path.
 #include <cstdint>
 
-#include "backend/cpu/stress_batch.h"
+#include "mpm/math.h"
 
 namespace mpm {
-#ifdef MPM_STRESS_BATCH
+#if defined(__GNUC__) && !defined(__CUDACC__)
+#define MPM_CPU_LANES 1
 namespace simd {
+// the machine's vector width (the x86-64 baseline's 4 too: wider vectors would be passed
+// between functions differently from what an AVX caller expects, -Wpsabi)
+#if defined(__AVX512F__)
+constexpr int kLanes = 16;
+#elif defined(__AVX__)
+constexpr int kLanes = 8;
+#else
+constexpr int kLanes = 4;
+#endif
+typedef float Floats __attribute__((vector_size(4 * kLanes)));
+typedef int Mask __attribute__((vector_size(4 * kLanes)));
+
+inline Floats splat(float s) { return Floats{} + s; }
+inline Floats sqrtLanes(Floats x) {
+  Floats r;
+  for (int l = 0; l < kLanes; ++l) r[l] = __builtin_sqrtf(x[l]);  // one vsqrtps (-fno-math-errno)
+  return r;
+}
+inline bool any(Mask m) {
+  int a = 0;
+  for (int l = 0; l < kLanes; ++l) a |= m[l];
+  return a != 0;
+}
 
 // inlined always: GCC had left some out of line (the vectors then go through memory)
 #define MPM_LANES_INLINE inline __attribute__((always_inline))
@@ -141,7 +167,10 @@ MPM_LANES_INLINE void loadMat3Lanes(const Mat3f* M, const uint32_t* ids, int lan
     loadMat3Run(&M[ids[0]], f);
     return;
   }
-  loadLanes(M, ids, lanes, fill, f);
+  for (int l = 0; l < kLanes; ++l) {
+    const Mat3f& Ml = l < lanes ? M[ids[l]] : fill;
+    for (int e = 0; e < 9; ++e) f[e][l] = Ml.m[e / 3][e % 3];
+  }
 }
 
 /// -1 in lanes 0 .. n - 1, 0 in the others.
@@ -164,23 +193,31 @@ MPM_LANES_INLINE uint32_t laneBits(const Mask& m) {
   return bits;
 }
 
+/// M[l].m[r][c] = f[3 r + c][l] for kLanes consecutive matrices (loadMat3Run backwards).
+MPM_LANES_INLINE void storeMat3Run(const Floats f[9], Mat3f* M) {
+#ifdef MPM_LANE_SHUFFLES
+  Floats col[3][3], v[9];
+  for (int c = 0; c < 3; ++c) {
+    const Floats r[3] = {f[c], f[3 + c], f[6 + c]};
+    interleave3(r, col[c]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    const Floats t[3] = {col[0][k], col[1][k], col[2][k]};
+    interleave3(t, &v[3 * k]);
+  }
+  storeVectors<9>(v, M);
+#else
+  for (int l = 0; l < kLanes; ++l)
+    for (int e = 0; e < 9; ++e) M[l].m[e / 3][e % 3] = f[e][l];
+#endif
+}
+
 /// M[ids[l]].m[r][c] = f[3 r + c][l] for l < lanes (loadMat3Lanes backwards).
 MPM_LANES_INLINE void storeMat3Lanes(const Floats f[9], const uint32_t* ids, int lanes, Mat3f* M) {
-#ifdef MPM_LANE_SHUFFLES
   if (consecutive(ids, lanes)) {
-    Floats col[3][3], v[9];
-    for (int c = 0; c < 3; ++c) {
-      const Floats r[3] = {f[c], f[3 + c], f[6 + c]};
-      interleave3(r, col[c]);
-    }
-    for (int k = 0; k < 3; ++k) {
-      const Floats t[3] = {col[0][k], col[1][k], col[2][k]};
-      interleave3(t, &v[3 * k]);
-    }
-    storeVectors<9>(v, &M[ids[0]]);
+    storeMat3Run(f, &M[ids[0]]);
     return;
   }
-#endif
   for (int l = 0; l < lanes; ++l)
     for (int e = 0; e < 9; ++e) M[ids[l]].m[e / 3][e % 3] = f[e][l];
 }

@@ -38,7 +38,7 @@ struct StencilRun {
   /// QuadraticStencil(geo, x[ids[q]]). kWeights false: the bases only (binning's need).
   template <bool kWeights = true>
   void compute(const GridGeometry& geo, const Vec3f* x, const uint32_t* ids, int n) {
-#ifdef MPM_STRESS_BATCH
+#ifdef MPM_CPU_LANES
     using simd::Floats;
     using simd::kLanes;
     static_assert(kRun % kLanes == 0, "whole vectors");

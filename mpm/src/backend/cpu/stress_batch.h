@@ -13,38 +13,13 @@
 // instructions, one lane of the machine's vectors.
 #include <cstdint>
 
+#include "backend/cpu/lanes_layout.h"
 #include "core/constitutive.h"
 #include "core/pb_projection.h"
 
 namespace mpm {
 
-#if defined(__GNUC__) && !defined(__CUDACC__)
-#define MPM_STRESS_BATCH 1
-namespace simd {
-// the machine's vector width (the x86-64 baseline's 4 too: wider vectors would be passed
-// between functions differently from what an AVX caller expects, -Wpsabi)
-#if defined(__AVX512F__)
-constexpr int kLanes = 16;
-#elif defined(__AVX__)
-constexpr int kLanes = 8;
-#else
-constexpr int kLanes = 4;
-#endif
-typedef float Floats __attribute__((vector_size(4 * kLanes)));
-typedef int Mask __attribute__((vector_size(4 * kLanes)));
-
-inline Floats splat(float s) { return Floats{} + s; }
-inline Floats sqrtLanes(Floats x) {
-  Floats r;
-  for (int l = 0; l < kLanes; ++l) r[l] = __builtin_sqrtf(x[l]);  // one vsqrtps (-fno-math-errno)
-  return r;
-}
-inline bool any(Mask m) {
-  int a = 0;
-  for (int l = 0; l < kLanes; ++l) a |= m[l];
-  return a != 0;
-}
-}  // namespace simd
+#ifdef MPM_CPU_LANES
 
 /// det of the kLanes matrices f[9] (row-major entries, one lane per particle).
 inline simd::Floats determinantLanes(const simd::Floats f[9]) {
@@ -156,14 +131,6 @@ inline void neoHookeanDecoupledLanes(const simd::Floats f[9], const simd::Floats
   tau[8] += diag;
 }
 
-/// Entries of M[ids[l]] into lane l of f[9] for l < lanes; `fill` in the unused lanes.
-inline void loadLanes(const Mat3f* M, const uint32_t* ids, int lanes, const Mat3f& fill, simd::Floats f[9]) {
-  for (int l = 0; l < simd::kLanes; ++l) {
-    const Mat3f& Ml = l < lanes ? M[ids[l]] : fill;
-    for (int e = 0; e < 9; ++e) f[e][l] = Ml.m[e / 3][e % 3];
-  }
-}
-
 /// PB-MPM's projected velocity gradient (pbProjectedVelocityGradient) of the kLanes
 /// particles with F f[9] and C c[9]; `scalar` marks the lanes left to the caller (the
 /// polar rotation's Jacobi path, or J^(1/3) outside inverseCbrtLanes' range).
@@ -202,28 +169,36 @@ inline void pbProjectionLanes(const simd::Floats f[9], const simd::Floats c[9], 
       out[3 * i + j] = c[3 * i + j] + relaxation * (rate - c[3 * i + j]);
     }
 }
+/// out[q] = the matrix in lane q of m[9] for q < lanes (a run of the caller's, so whole
+/// vectors move by shuffles when the run fills them).
+inline void storeRunLanes(const simd::Floats m[9], int lanes, Mat3f* out) {
+  if (lanes == simd::kLanes) {
+    simd::storeMat3Run(m, out);
+    return;
+  }
+  for (int q = 0; q < lanes; ++q)
+    for (int e = 0; e < 9; ++e) out[q].m[e / 3][e % 3] = m[e][q];
+}
 #endif  // the lanes (GCC / Clang vector extensions)
 
 /// Cc[q] = pbProjectedVelocityGradient(F[ids[q]], C[ids[q]], ...) for q < n, kLanes
 /// particles at a time.
 inline void pbProjectionBatch(const Mat3f* F, const Mat3f* C, const uint32_t* ids, int n, float dt,
                               float relaxation, float rigidity, Mat3f* Cc) {
-#ifdef MPM_STRESS_BATCH
+#ifdef MPM_CPU_LANES
   using simd::kLanes;
   for (int q0 = 0; q0 < n; q0 += kLanes) {
     const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
     simd::Floats f[9], c[9], out[9];
-    loadLanes(F, ids + q0, lanes, Mat3f::identity(), f);
-    loadLanes(C, ids + q0, lanes, Mat3f{}, c);
+    simd::loadMat3Lanes(F, ids + q0, lanes, Mat3f::identity(), f);
+    simd::loadMat3Lanes(C, ids + q0, lanes, Mat3f{}, c);
     simd::Mask scalar;
     pbProjectionLanes(f, c, dt, relaxation, rigidity, out, scalar);
-    for (int l = 0; l < lanes; ++l) {
+    storeRunLanes(out, lanes, &Cc[q0]);
+    for (uint32_t left = simd::laneBits(scalar & simd::lanesBelow(lanes)); left; left &= left - 1) {
+      const int l = __builtin_ctz(left);
       const uint32_t p = ids[q0 + l];
-      if (scalar[l]) {
-        Cc[q0 + l] = pbProjectedVelocityGradient(F[p], C[p], dt, relaxation, rigidity);
-        continue;
-      }
-      for (int e = 0; e < 9; ++e) Cc[q0 + l].m[e / 3][e % 3] = out[e][l];
+      Cc[q0 + l] = pbProjectedVelocityGradient(F[p], C[p], dt, relaxation, rigidity);
     }
   }
 #else
@@ -236,14 +211,14 @@ inline void pbProjectionBatch(const Mat3f* F, const Mat3f* C, const uint32_t* id
 /// particles; the lanes a law leaves to the scalar path take kirchhoffStress.
 inline void kirchhoffStressBatch(const MaterialParams* materials, const uint32_t* object, const Mat3f* F,
                                  const uint32_t* ids, int n, Mat3f* tau) {
-#ifdef MPM_STRESS_BATCH
+#ifdef MPM_CPU_LANES
   using simd::kLanes;
   for (int q0 = 0; q0 < n; q0 += kLanes) {
     const int lanes = n - q0 < kLanes ? n - q0 : kLanes;
     simd::Floats f[9], mu = simd::splat(0.f), second = simd::splat(0.f);  // second: lambda or K
     simd::Mask model = simd::Mask{} - 1;  // -1: a lane left to kirchhoffStress (unused lanes too)
     bool corotated = false, neoHookean = false;
-    loadLanes(F, ids + q0, lanes, Mat3f::identity(), f);  // unused lanes: the identity's zero stress
+    simd::loadMat3Lanes(F, ids + q0, lanes, Mat3f::identity(), f);  // unused lanes: the identity's zero stress
     for (int l = 0; l < lanes; ++l) {
       const MaterialParams& mat = materials[object[ids[q0 + l]]];
       if (mat.model == kFixedCorotated) {
@@ -267,14 +242,11 @@ inline void kirchhoffStressBatch(const MaterialParams* materials, const uint32_t
       for (int e = 0; e < 9; ++e) t[e] = isNeo ? tNeo[e] : t[e];
       scalar = isNeo ? scalarNeo : scalar;
     }
-    for (int l = 0; l < lanes; ++l) {
+    storeRunLanes(t, lanes, &tau[q0]);
+    for (uint32_t left = simd::laneBits(((model < 0) | scalar) & simd::lanesBelow(lanes)); left; left &= left - 1) {
+      const int l = __builtin_ctz(left);
       const uint32_t p = ids[q0 + l];
-      Mat3f& out = tau[q0 + l];
-      if (model[l] < 0 || scalar[l]) {
-        out = kirchhoffStress(materials[object[p]], F[p]);
-        continue;
-      }
-      for (int e = 0; e < 9; ++e) out.m[e / 3][e % 3] = t[e][l];
+      tau[q0 + l] = kirchhoffStress(materials[object[p]], F[p]);
     }
   }
 #else

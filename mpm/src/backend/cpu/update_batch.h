@@ -31,7 +31,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
     check.maxSpeed2 = std::max(check.maxSpeed2, speed2);
     check.firstBadParticle = std::min(check.firstBadParticle, bad);
   };
-#ifdef MPM_STRESS_BATCH
+#ifdef MPM_CPU_LANES
   using simd::Floats;
   using simd::kLanes;
   using simd::Mask;
