@@ -30,6 +30,15 @@ struct ZeroNodes {
   GridNode* nodes;
   MPM_HD void operator()(size_t n) const { nodes[n] = GridNode{}; }  // every field (MPM_GRID_NODE_FIELDS) zero
 };
+/// Mass and momenta zero; the material centroids (touch, mx) kept.
+struct ZeroMomenta {
+  GridNode* nodes;
+  MPM_HD void operator()(size_t n) const {
+    GridNode& g = nodes[n];
+    g.mass = 0.f;
+    g.mv = g.dmv = Vec3f{0.f, 0.f, 0.f};
+  }
+};
 
 /// data[i] = value.
 template <class T>
@@ -339,6 +348,14 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     const auto t0 = Clock::now();
     const GridView g = grid();
     exec_.forEach((size_t)g.activeCount * kBlockNodes, kernels::ZeroNodes{g.nodes});
+    timings.sort += seconds(t0);
+  }
+  /// clearGrid but for the material centroids, which the next P2G does not scatter again
+  /// (scatterParticles with `centroids` false).
+  void clearMomenta() {
+    const auto t0 = Clock::now();
+    const GridView g = grid();
+    exec_.forEach((size_t)g.activeCount * kBlockNodes, kernels::ZeroMomenta{g.nodes});
     timings.sort += seconds(t0);
   }
   /// P2G: `k(p, nodes)` for every particle, nodes accumulating.

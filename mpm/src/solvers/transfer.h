@@ -218,10 +218,11 @@ MPM_HD StepCheck strayParticle(uint32_t p, const ParticleView& P) {
 
 /// P2G through the kernel template K<kCentroid>: with the material centroid w m x_p only
 /// when a shape can reach the material this substep (contact needs it; a scene without
-/// shapes, or with shapes far away, does not pay).
+/// shapes, or with shapes far away, does not pay) and `centroids` asks for it (false: the
+/// grid still holds this substep's, cleared by clearMomenta).
 template <template <bool> class K, class System, class... Args>
-void scatterParticles(System& s, const Args&... args) {
-  if (s.hasShapes())
+void scatterParticles(System& s, bool centroids, const Args&... args) {
+  if (centroids && s.hasShapes())
     s.scatter(K<true>{args...});
   else
     s.scatter(K<false>{args...});
@@ -248,7 +249,7 @@ void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, co
   s.placeShapes();
   s.recordCuts(p.dt);
   s.clearGrid();
-  scatterParticles<P2G>(s, p2gArgs...);
+  scatterParticles<P2G>(s, true, p2gArgs...);
   s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});
   s.exchangeContact(p.dt, true);
   s.moveShapes(p.dt);
