@@ -26,20 +26,6 @@ namespace mpm {
 
 namespace kernels {
 
-struct ZeroNodes {
-  GridNode* nodes;
-  MPM_HD void operator()(size_t n) const { nodes[n] = GridNode{}; }  // every field (MPM_GRID_NODE_FIELDS) zero
-};
-/// Mass and momenta zero; the material centroids (touch, mx) kept.
-struct ZeroMomenta {
-  GridNode* nodes;
-  MPM_HD void operator()(size_t n) const {
-    GridNode& g = nodes[n];
-    g.mass = 0.f;
-    g.mv = g.dmv = Vec3f{0.f, 0.f, 0.f};
-  }
-};
-
 /// data[i] = value.
 template <class T>
 struct Fill {
@@ -343,26 +329,14 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     exec_.bin(view(), bins_);
     timings.sort += seconds(t0);
   }
-  /// Zeroes every node of the active blocks.
-  void clearGrid() {
-    const auto t0 = Clock::now();
-    const GridView g = grid();
-    exec_.forEach((size_t)g.activeCount * kBlockNodes, kernels::ZeroNodes{g.nodes});
-    timings.sort += seconds(t0);
-  }
-  /// clearGrid but for the material centroids, which the next P2G does not scatter again
-  /// (scatterParticles with `centroids` false).
-  void clearMomenta() {
-    const auto t0 = Clock::now();
-    const GridView g = grid();
-    exec_.forEach((size_t)g.activeCount * kBlockNodes, kernels::ZeroMomenta{g.nodes});
-    timings.sort += seconds(t0);
-  }
-  /// P2G: `k(p, nodes)` for every particle, nodes accumulating.
+  /// P2G: every node of the active blocks becomes the sum over the particles of what
+  /// `k(p, nodes)` adds to it (fields k does not scatter: zero). With keepCentroids the
+  /// material centroids (touch, mx) stay as the last P2G left them (k must not scatter
+  /// them: PB-MPM's later cycles).
   template <class K>
-  void scatter(const K& k) {
+  void scatter(const K& k, bool keepCentroids = false) {
     const auto t0 = Clock::now();
-    exec_.particleToGrid(bins_, k);
+    exec_.particleToGrid(bins_, k, keepCentroids);
     timings.p2g += seconds(t0);
   }
   /// `k(n)` for every node of the active blocks, after folding the mirror planes' ghost

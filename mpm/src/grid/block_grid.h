@@ -50,6 +50,17 @@ struct GridNode {
 #undef MPM_NODE_MEMBER
 };
 
+/// Zeroes a node's fields (MPM_GRID_NODE_FIELDS); with keepCentroids all but the material
+/// centroids (touch, mx), which PB-MPM's later cycles of a substep keep from its first.
+MPM_HD void clearNode(GridNode& g, bool keepCentroids) {
+  if (!keepCentroids) {
+    g = GridNode{};
+    return;
+  }
+  g.mass = 0.f;
+  g.mv = g.dmv = Vec3f{0.f, 0.f, 0.f};
+}
+
 /// A node with less mass than this holds no material: it takes no velocity and no contact.
 /// Only a stencil's far corner, with a weight near 1e-39 (a particle within an ulp of a
 /// node layer), puts so little on a node; 1 / mass would overflow to inf there and turn

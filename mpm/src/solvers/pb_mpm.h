@@ -118,11 +118,7 @@ struct PbMpm {
     for (int it = 0; it < n; ++it) {
       // The material centroids (sum w m x_p, sum w m touch_p) are the same in every cycle,
       // the positions and touch flags held: scattered in the first only, kept after.
-      if (it == 0)
-        s.clearGrid();
-      else
-        s.clearMomenta();
-      // the resistance to cutting acts once a substep, like gravity
+      // The resistance to cutting acts once a substep, like gravity
       scatterParticles<P2G>(s, it == 0, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, s.cuts(),
                             it == 0 ? s.cuttingPush() : nullptr);
       const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};

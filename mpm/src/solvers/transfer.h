@@ -219,13 +219,13 @@ MPM_HD StepCheck strayParticle(uint32_t p, const ParticleView& P) {
 /// P2G through the kernel template K<kCentroid>: with the material centroid w m x_p only
 /// when a shape can reach the material this substep (contact needs it; a scene without
 /// shapes, or with shapes far away, does not pay) and `centroids` asks for it (false: the
-/// grid still holds this substep's, cleared by clearMomenta).
+/// grid keeps the centroids of this substep's first P2G).
 template <template <bool> class K, class System, class... Args>
 void scatterParticles(System& s, bool centroids, const Args&... args) {
   if (centroids && s.hasShapes())
     s.scatter(K<true>{args...});
   else
-    s.scatter(K<false>{args...});
+    s.scatter(K<false>{args...}, !centroids);
 }
 
 /// A G2P kernel given the parts that can reach the material this substep (fields `parts`,
@@ -240,7 +240,7 @@ G2PKernel withParts(const System& s, G2PKernel k) {
 }
 
 /// The substep of an explicit solver (MLS-MPM, standard MPM): bin, place the shapes,
-/// clear, P2G, grid update, rigid contact and bodies, G2P. P2G<kCentroid> is built from
+/// P2G, grid update, rigid contact and bodies, G2P. P2G<kCentroid> is built from
 /// `p2gArgs`; the grid kernel (fields grid, dt, gravity, walls) only after binning, which
 /// sets the grid; `g2p` gets its parts here.
 template <template <bool> class P2G, class GridKernel, class System, class G2PKernel, class... P2GArgs>
@@ -248,7 +248,6 @@ void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, co
   s.binParticles();
   s.placeShapes();
   s.recordCuts(p.dt);
-  s.clearGrid();
   scatterParticles<P2G>(s, true, p2gArgs...);
   s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});
   s.exchangeContact(p.dt, true);

@@ -3,13 +3,12 @@
 //
 // Transfers by grid block: particles are binned by the 4^3 block holding their stencil
 // base, so a block's particles reach only a 6^3 tile of nodes (the block and its +1
-// neighbours). P2G accumulates into that tile in L1 and then adds it to the grid; G2P
+// neighbours). P2G accumulates into that tile in L1 and keeps it for the grid's sums; G2P
 // copies the tile's velocities once and gathers from it. No block-table lookup per node.
 //
-// P2G without float atomics: blocks whose coordinates have the same parities (8 colours)
-// never flush to the same node and run in parallel. Each node then receives its
-// contributions in a fixed order whatever the thread count, which makes the CPU path
-// bit-for-bit deterministic.
+// P2G without float atomics: every block's particles go to its own tile, all blocks in
+// parallel, and then each node sums the tiles that reach it in a fixed order whatever the
+// thread count, which makes the CPU path bit-for-bit deterministic.
 #if defined(_OPENMP)
 #include <omp.h>  // omp_get_max_threads: OMP_NUM_THREADS as the default thread count
 #endif
@@ -130,19 +129,6 @@ struct BlockTile {
           if (gi > grid.geo.cells[0] || gj > grid.geo.cells[1] || gk > grid.geo.cells[2]) continue;
           f((i * kEdge + j) * kEdge + k, grid.node(gi, gj, gk));
         }
-  }
-  /// Adds the tile to the grid.
-  template <bool kMx, bool kDmv>
-  void flush(const GridView& grid) {
-    forEachGridNode(grid, [this](int t, GridNode& g) {
-      g.mass += mv[t][0];
-      g.mv += mv[t].xyz();
-      if (kMx) {
-        g.touch += mx[t][0];
-        g.mx += mx[t].xyz();
-      }
-      if (kDmv) g.dmv += dmv[t].xyz();
-    });
   }
   /// Copies the grid's {mass, velocity} (and old velocity) into the tile.
   template <bool kDmv>
@@ -272,7 +258,8 @@ struct CpuExec {
     Binning(CpuExec&, const GridGeometry& geo)
         : geo_(geo),
           blockCount_(nBlocks(geo), 0),
-          blockSlot_(nBlocks(geo), -1) {}
+          blockSlot_(nBlocks(geo), -1),
+          occupiedRank_(nBlocks(geo), -1) {}
 
     /// Bins the particles: `order` lists particle indices block by block (stable),
     /// `blocks` the occupied blocks in index order with their ranges in `order`.
@@ -288,6 +275,7 @@ struct CpuExec {
     /// barrier was a wake-up of about 0.1 ms on the 2-core VM).
     void build(const ParticleView& P, ThreadTeam& pool, int threads) {
       const size_t n = P.count;
+      for (uint32_t b : occupied_) occupiedRank_[b] = -1;  // the last binning's
       order_.resize(n);
       const int team = (long long)n >= kMinParallel ? std::max(threads, 1) : 1;
       if ((int)firstSeen_.size() < team) {
@@ -362,35 +350,44 @@ struct CpuExec {
 
       activate();
       nearListed_ = false;  // the lists belong to the old active blocks
-      for (auto& c : colour_) c.clear();
-      for (size_t j = 0; j < occupied_.size(); ++j) {
-        int bx, by, bz;
-        geo_.blockCoords(occupied_[j], bx, by, bz);
-        colour_[(bx & 1) | ((by & 1) << 1) | ((bz & 1) << 2)].push_back((uint32_t)j);
-      }
-      // Each colour's blocks the most particles first: blocks are handed out one at a time,
-      // and with the small ones last the threads finish a colour together (in a small scene
-      // a colour holds a few blocks, and a full one, up to 512 particles, taken last kept
-      // the other thread waiting). The order within a colour does not change the result:
-      // its blocks never flush to the same node. G2P keeps the blocks' memory order: in
-      // size order it was 2-3 % slower at 125k particles (its particle streams broke at
-      // every block), with nothing to balance there.
+      for (size_t j = 0; j < occupied_.size(); ++j) occupiedRank_[occupied_[j]] = (int32_t)j;
+      // P2G takes the blocks the most particles first: they are handed out one at a time,
+      // and with the small ones last the threads finish together (a small scene has a few
+      // dozen blocks, and a full one, up to 512 particles, taken last kept the other thread
+      // waiting). The order does not change the result (particleToGrid). G2P keeps the
+      // blocks' memory order: in size order it was 2-3 % slower at 125k particles (its
+      // particle streams broke at every block), with nothing to balance there.
       const auto moreFirst = [this](uint32_t a, uint32_t b) {
         const uint32_t na = start_[a + 1] - start_[a], nb = start_[b + 1] - start_[b];
         return na != nb ? na > nb : a < b;
       };
-      for (auto& c : colour_) std::sort(c.begin(), c.end(), moreFirst);
+      byWork_.resize(occupied_.size());
+      for (size_t j = 0; j < byWork_.size(); ++j) byWork_[j] = (uint32_t)j;
+      std::sort(byWork_.begin(), byWork_.end(), moreFirst);
     }
 
-    /// P2G by coloured blocks, each through its own tile.
+    /// P2G in two parallel passes: each occupied block's particles into its own tile,
+    /// kept (tiles_); then each active block's nodes sum the tiles that reach them.
+    ///
+    /// Why: the blocks had been coloured by the parity of their coordinates, eight colours
+    /// one after another with a barrier between, each colour's blocks flushing straight to
+    /// the grid (no two reach the same node). A small scene has a few blocks per colour, so
+    /// a thread often waited at each barrier for the other's last block: on the embedding
+    /// scene (9000 particles) on 2 threads 17-20 % of P2G was that wait.
+    ///
+    /// The same bits: a node is reached by the tiles of its own block and of up to seven
+    /// neighbours below it, each of another colour, and the second pass adds them in colour
+    /// order to the node as cleared, the float additions the coloured flushes made. So the
+    /// result depends on the particles alone, not on the thread count.
     template <class F>
-    void particleToGrid(const F& f, ThreadTeam& pool, int threads) const {
+    void particleToGrid(const F& f, bool keepCentroids, ThreadTeam& pool, int threads) const {
+      constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
+      constexpr int kFields = 1 + kMx + kDmv, kNodes = BlockTile::kNodes;
       const GridView grid = gridView();
-      // one run for all eight colours; a barrier after each keeps colours apart
-      std::atomic<long long> next[8];
-      for (auto& c : next) c.store(0);
-      pool.run((long long)occupied_.size() >= kMinParallelBlocks ? threads : 1, [&](int, int nt) {
-        constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
+      const size_t nOcc = occupied_.size();
+      if (tiles_.size() < nOcc * kFields * kNodes) tiles_.resize(nOcc * kFields * kNodes);
+      std::atomic<long long> nextBlock{0}, nextSlot{0};
+      pool.run((long long)nOcc >= kMinParallelBlocks ? threads : 1, [&](int, int nt) {
         P2GTile tile;
         thread_local CellScatter cells;  // grows to the largest block once per thread
         tile.cells = &cells;
@@ -400,42 +397,82 @@ struct CpuExec {
         static_assert(!BatchesProjection<F>::value || BatchesStencil<F>::value, "the projection comes with the stencil");
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStressRun> st;  // BatchesStencil: their stencils
-        for (int colour = 0; colour < 8; ++colour) {
-          const auto& blocks = colour_[colour];
-          for (long long b; (b = next[colour].fetch_add(1)) < (long long)blocks.size();) {
-            const uint32_t j = blocks[b];
-            tile.setBlock(geo_, occupied_[j]);
-            tile.clear<kMx, kDmv>();
-            cells.reserve(start_[j + 1] - start_[j]);
-            if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
-              for (uint32_t r = start_[j]; r < start_[j + 1];) {
-                const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
-                if constexpr (BatchesStress<F>::value)
-                  kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
-                else
-                  pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
-                if constexpr (BatchesStencil<F>::value) {
-                  st.compute(f.geo, f.P.x, &order_[r], n);
-                  for (int q = 0; q < n; ++q) {
-                    if constexpr (BatchesStress<F>::value)
-                      f.scatterStressed(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
-                    else
-                      f.scatterProjected(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
-                  }
-                } else {
-                  for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
+        for (long long b; (b = nextBlock.fetch_add(1)) < (long long)nOcc;) {
+          const uint32_t j = byWork_[b];
+          tile.setBlock(geo_, occupied_[j]);
+          tile.clear<kMx, kDmv>();
+          cells.reserve(start_[j + 1] - start_[j]);
+          if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
+            for (uint32_t r = start_[j]; r < start_[j + 1];) {
+              const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
+              if constexpr (BatchesStress<F>::value)
+                kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
+              else
+                pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
+              if constexpr (BatchesStencil<F>::value) {
+                st.compute(f.geo, f.P.x, &order_[r], n);
+                for (int q = 0; q < n; ++q) {
+                  if constexpr (BatchesStress<F>::value)
+                    f.scatterStressed(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
+                  else
+                    f.scatterProjected(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
                 }
-                r += n;
+              } else {
+                for (int q = 0; q < n; ++q) f.scatterStressed(order_[r + q], tau[q], tile);
               }
-            } else {
-              for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
+              r += n;
             }
-            tile.finish<kMx>();
-            tile.flush<kMx, kDmv>(grid);
+          } else {
+            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
           }
-          pool.barrier(nt);
+          tile.finish<kMx>();
+          Float4* kept = &tiles_[(size_t)j * kFields * kNodes];
+          std::copy(tile.mv, tile.mv + kNodes, kept);
+          if constexpr (kMx) std::copy(tile.mx, tile.mx + kNodes, kept + kNodes);
+          if constexpr (kDmv) std::copy(tile.dmv, tile.dmv + kNodes, kept + (1 + kMx) * kNodes);
         }
+        pool.barrier(nt);
+        for (long long a; (a = nextSlot.fetch_add(1)) < (long long)active_.size();)
+          sumTiles<kMx, kDmv>(grid, (uint32_t)a, keepCentroids);
       });
+    }
+
+    /// Active block `slot`'s nodes: cleared (clearNode), then the kept tiles that reach
+    /// them added in colour order (particleToGrid). The tile of the block d below (d in
+    /// {0, 1}^3, in blocks) reaches its nodes 0..3 - 2 d along each axis.
+    template <bool kMx, bool kDmv>
+    void sumTiles(const GridView& grid, uint32_t slot, bool keepCentroids) const {
+      constexpr int kFields = 1 + kMx + kDmv, kEdge = BlockTile::kEdge, kNodes = BlockTile::kNodes;
+      int c[3];
+      geo_.blockCoords(active_[slot], c[0], c[1], c[2]);
+      const int colour = (c[0] & 1) | ((c[1] & 1) << 1) | ((c[2] & 1) << 2);
+      int end[3];  // the block's nodes on the grid (a block may reach past its last node)
+      for (int a = 0; a < 3; ++a) end[a] = std::min(kBlockSize, geo_.cells[a] - (c[a] << kBlockBits) + 1);
+      GridNode* nodes = grid.nodes + (size_t)slot * kBlockNodes;
+      for (int n = 0; n < kBlockNodes; ++n) clearNode(nodes[n], keepCentroids);
+      for (int k = 0; k < 8; ++k) {
+        const int d = k ^ colour;  // the block below with colour k: its coordinates' parities differ where d is 1
+        const int dx = d & 1, dy = (d >> 1) & 1, dz = (d >> 2) & 1;
+        if (c[0] < dx || c[1] < dy || c[2] < dz) continue;
+        const int32_t rank = occupiedRank_[geo_.blockIndex(c[0] - dx, c[1] - dy, c[2] - dz)];
+        if (rank < 0) continue;
+        const Float4* tile = &tiles_[(size_t)rank * kFields * kNodes];
+        const int iEnd = std::min(end[0], kEdge - kBlockSize * dx), jEnd = std::min(end[1], kEdge - kBlockSize * dy),
+                  kEnd = std::min(end[2], kEdge - kBlockSize * dz);
+        for (int i = 0; i < iEnd; ++i)
+          for (int j = 0; j < jEnd; ++j)
+            for (int l = 0; l < kEnd; ++l) {
+              const int t = ((kBlockSize * dx + i) * kEdge + (kBlockSize * dy + j)) * kEdge + (kBlockSize * dz + l);
+              GridNode& g = nodes[(i << (2 * kBlockBits)) | (j << kBlockBits) | l];
+              g.mass += tile[t][0];
+              g.mv += tile[t].xyz();
+              if constexpr (kMx) {
+                g.touch += tile[kNodes + t][0];
+                g.mx += tile[kNodes + t].xyz();
+              }
+              if constexpr (kDmv) g.dmv += tile[(1 + kMx) * kNodes + t].xyz();
+            }
+      }
     }
 
     /// G2P by blocks (any order: reads only), each from a tile of grid velocities.
@@ -646,7 +683,8 @@ struct CpuExec {
     size_t memoryBytes() const {
       size_t runs = 0;
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
-      return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + runs +
+      return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + occupiedRank_.capacity() * 4 +
+             byWork_.capacity() * 4 + tiles_.capacity() * sizeof(Float4) + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
              occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
              nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums);
@@ -684,7 +722,9 @@ struct CpuExec {
     std::vector<uint32_t> blockCount_;
     std::vector<int32_t> blockSlot_;
     std::vector<uint32_t> order_, occupied_, start_, cursor_, active_;
-    std::vector<uint32_t> colour_[8];
+    std::vector<int32_t> occupiedRank_;  ///< block -> its rank in occupied_, or -1
+    std::vector<uint32_t> byWork_;       ///< occupied_'s ranks, the most particles first
+    mutable std::vector<Float4> tiles_;  ///< P2G: each occupied block's tile, by rank
     std::vector<std::vector<uint32_t>> firstSeen_;  ///< per thread: blocks it saw first
     /// Consecutive particles in one block.
     struct BlockRun {
@@ -740,7 +780,9 @@ struct CpuExec {
 
   void bin(const ParticleView& P, Binning& b) { b.build(P, *team_, threads); }
   template <class F>
-  void particleToGrid(const Binning& b, const F& f) { b.particleToGrid(f, *team_, threads); }
+  void particleToGrid(const Binning& b, const F& f, bool keepCentroids) {
+    b.particleToGrid(f, keepCentroids, *team_, threads);
+  }
   bool partsReach(const Binning& b, const PartView* parts, int nParts) const { return b.partsReach(parts, nParts); }
   void findNearParts(Binning& b, const PartView* parts, int nParts) { b.findNearParts(parts, nParts); }
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,

@@ -42,6 +42,13 @@ __global__ void gridToParticleKernel(size_t n, F f, Nodes nodes, unsigned int* m
   if (c.firstBadParticle != 0xffffffffu) atomicMin(firstBad, c.firstBadParticle);
 }
 
+/// clearNode of every node, before P2G adds to them.
+struct ClearNodes {
+  GridNode* nodes;
+  bool keepCentroids;
+  MPM_HD void operator()(size_t n) const { clearNode(nodes[n], keepCentroids); }
+};
+
 /// P2G of every particle, in block order so neighbouring threads hit neighbouring nodes.
 template <class F, class Nodes>
 __global__ void particleToGridKernel(size_t n, const uint32_t* order, F f, Nodes nodes) {
@@ -216,7 +223,7 @@ struct CudaExec {
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass);
   template <class F>
-  void particleToGrid(const Binning& b, const F& f);
+  void particleToGrid(const Binning& b, const F& f, bool keepCentroids);
   template <class F>
   void gridToParticle(const Binning& b, const F& f);
 
@@ -356,7 +363,9 @@ inline void CudaExec::contactPass(Binning& b, const PartView* parts, int nParts,
 }
 
 template <class F>
-void CudaExec::particleToGrid(const Binning& b, const F& f) {
+void CudaExec::particleToGrid(const Binning& b, const F& f, bool keepCentroids) {
+  const GridView grid = b.gridView();
+  forEach((size_t)grid.activeCount * kBlockNodes, ClearNodes{grid.nodes, keepCentroids});
   if (b.count() == 0) return;
   particleToGridKernel<<<blocksFor(b.count()), kThreads, 0, stream_>>>(b.count(), b.order(), f,
                                                                       GridNodes<Add>{b.gridView()});
