@@ -212,6 +212,17 @@ MPM_LANES_INLINE void storeMat3Run(const Floats f[9], Mat3f* M) {
 #endif
 }
 
+/// M[l].m[r][c] = f[3 r + c][l] for l < lanes: a caller's own run of matrices (the batched
+/// stresses' results), by shuffles when the lanes fill it.
+MPM_LANES_INLINE void storeMat3Prefix(const Floats f[9], int lanes, Mat3f* M) {
+  if (lanes == kLanes) {
+    storeMat3Run(f, M);
+    return;
+  }
+  for (int l = 0; l < lanes; ++l)
+    for (int e = 0; e < 9; ++e) M[l].m[e / 3][e % 3] = f[e][l];
+}
+
 /// M[ids[l]].m[r][c] = f[3 r + c][l] for l < lanes (loadMat3Lanes backwards).
 MPM_LANES_INLINE void storeMat3Lanes(const Floats f[9], const uint32_t* ids, int lanes, Mat3f* M) {
   if (consecutive(ids, lanes)) {

@@ -169,16 +169,6 @@ inline void pbProjectionLanes(const simd::Floats f[9], const simd::Floats c[9], 
       out[3 * i + j] = c[3 * i + j] + relaxation * (rate - c[3 * i + j]);
     }
 }
-/// out[q] = the matrix in lane q of m[9] for q < lanes (a run of the caller's, so whole
-/// vectors move by shuffles when the run fills them).
-inline void storeRunLanes(const simd::Floats m[9], int lanes, Mat3f* out) {
-  if (lanes == simd::kLanes) {
-    simd::storeMat3Run(m, out);
-    return;
-  }
-  for (int q = 0; q < lanes; ++q)
-    for (int e = 0; e < 9; ++e) out[q].m[e / 3][e % 3] = m[e][q];
-}
 #endif  // the lanes (GCC / Clang vector extensions)
 
 /// Cc[q] = pbProjectedVelocityGradient(F[ids[q]], C[ids[q]], ...) for q < n, kLanes
@@ -194,7 +184,7 @@ inline void pbProjectionBatch(const Mat3f* F, const Mat3f* C, const uint32_t* id
     simd::loadMat3Lanes(C, ids + q0, lanes, Mat3f{}, c);
     simd::Mask scalar;
     pbProjectionLanes(f, c, dt, relaxation, rigidity, out, scalar);
-    storeRunLanes(out, lanes, &Cc[q0]);
+    simd::storeMat3Prefix(out, lanes, &Cc[q0]);
     for (uint32_t left = simd::laneBits(scalar & simd::lanesBelow(lanes)); left; left &= left - 1) {
       const int l = __builtin_ctz(left);
       const uint32_t p = ids[q0 + l];
@@ -242,7 +232,7 @@ inline void kirchhoffStressBatch(const MaterialParams* materials, const uint32_t
       for (int e = 0; e < 9; ++e) t[e] = isNeo ? tNeo[e] : t[e];
       scalar = isNeo ? scalarNeo : scalar;
     }
-    storeRunLanes(t, lanes, &tau[q0]);
+    simd::storeMat3Prefix(t, lanes, &tau[q0]);
     for (uint32_t left = simd::laneBits(((model < 0) | scalar) & simd::lanesBelow(lanes)); left; left &= left - 1) {
       const int l = __builtin_ctz(left);
       const uint32_t p = ids[q0 + l];

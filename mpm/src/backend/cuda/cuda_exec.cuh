@@ -368,7 +368,7 @@ void CudaExec::particleToGrid(const Binning& b, const F& f, bool keepCentroids) 
   forEach((size_t)grid.activeCount * kBlockNodes, ClearNodes{grid.nodes, keepCentroids});
   if (b.count() == 0) return;
   particleToGridKernel<<<blocksFor(b.count()), kThreads, 0, stream_>>>(b.count(), b.order(), f,
-                                                                      GridNodes<Add>{b.gridView()});
+                                                                      GridNodes<Add>{grid});
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
