@@ -120,7 +120,9 @@ TEST_P(Walls, SeparateWallLetsMaterialLeave) {
 }
 
 // A sphere pressed on the axis of a block, with friction, gravity and a slip floor: the
-// whole block, and a quarter of it on two mirror planes through the axis.
+// whole block, and a quarter of it on two mirror planes through the axis. The axis lies off
+// the origin: a ghost's image of a point depends on where its plane is (2 plane - x), which
+// a plane through the origin hides.
 struct PressedBlock {
   std::vector<Vec3f> x0, x;  ///< particle positions at the start and the end
   ShapeImpulse impulse;      ///< summed over the run
@@ -131,17 +133,18 @@ PressedBlock pressBlock(SolverType solver, bool quarter) {
   SceneSettings s = floorBox(solver, WallMode::Slip);
   s.dx = dx;
   const float wall = (float)s.domain.wallThickness * dx;
-  // the axis x = z = 0 on a node column, wallThickness cells above the lower faces
-  s.domain.lower = {-0.12f - wall, -wall, -0.12f - wall};
-  s.domain.upper = {0.12f + wall, 0.16f, 0.12f + wall};
+  // the axis x = z = 0.25 m on a node column, wallThickness cells above the lower faces
+  const float axis = 0.25f;
+  s.domain.lower = {axis - 0.12f - wall, -wall, axis - 0.12f - wall};
+  s.domain.upper = {axis + 0.12f + wall, 0.16f, axis + 0.12f + wall};
   if (quarter) {
-    s.domain.lower.x = s.domain.lower.z = -wall;
+    s.domain.lower.x = s.domain.lower.z = axis - wall;
     s.domain.mirrorLower[0] = s.domain.mirrorLower[2] = true;
-    EXPECT_EQ(s.domain.mirrorPlane(0, dx), 0.f);
+    EXPECT_NEAR(s.domain.mirrorPlane(0, dx), axis, 1e-6f);
   }
   Scene scene(s);
   ParticleObjectDesc d;
-  d.center = quarter ? Vec3f{0.5f * half, 0.5f * height, 0.5f * half} : Vec3f{0.f, 0.5f * height, 0.f};
+  d.center = quarter ? Vec3f{axis + 0.5f * half, 0.5f * height, axis + 0.5f * half} : Vec3f{axis, 0.5f * height, axis};
   d.halfExtents = quarter ? Vec3f{0.5f * half, 0.5f * height, 0.5f * half} : Vec3f{half, 0.5f * height, half};
   d.material.youngsModulus = 2e4f;
   d.material.poissonRatio = 0.3f;
@@ -151,7 +154,7 @@ PressedBlock pressBlock(SolverType solver, bool quarter) {
   ball.radius = 0.05f;
   ShapeDesc sphere;
   sphere.parts = {ball};
-  sphere.pose.position = {0.f, height + 0.05f + 0.005f, 0.f};
+  sphere.pose.position = {axis, height + 0.05f + 0.005f, axis};
   sphere.linearVelocity = {0.f, -0.1f, 0.f};
   sphere.contact.mode = ContactMode::Frictional;
   sphere.contact.friction = 0.3f;

@@ -337,6 +337,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void scatter(const K& k, bool keepCentroids = false) {
     const auto t0 = Clock::now();
     exec_.particleToGrid(bins_, k, keepCentroids);
+    centroidsKept_ = keepCentroids;
     timings.p2g += seconds(t0);
   }
   /// `k(n)` for every node of the active blocks, after folding the mirror planes' ghost
@@ -345,7 +346,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void updateGrid(const K& k) {
     const auto t0 = Clock::now();
     const size_t nodes = (size_t)grid().activeCount * kBlockNodes;
-    if (walls_.mirror) exec_.forEach(nodes, MirrorFold{grid(), walls_});
+    if (walls_.mirror) exec_.forEach(nodes, MirrorFold{grid(), walls_, centroidsKept_});
     exec_.forEach(nodes, k);
     timings.gridUpdate += seconds(t0);
   }
@@ -437,6 +438,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   size_t count_ = 0;
   WallParams walls_;  ///< of the current substep
   bool shapesInReach_ = false;  ///< of the current substep (placeShapes)
+  bool centroidsKept_ = false;  ///< the last scatter kept the centroids (MirrorFold)
   bool blades_ = false;          ///< a slicer's blade is among the parts
   bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
   bool toughness_ = false;       ///< some material resists cutting (MaterialParams::toughness)
