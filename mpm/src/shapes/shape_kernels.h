@@ -279,36 +279,6 @@ constexpr float kRestingReach = 0.65f;
 /// 4-6 % short of MTLED's, no better on finer grids.
 constexpr float kGluedReach = 1.f;
 
-/// Contact of one grid node with a curve's part (kContactCurve): curveVelocity within its
-/// contact region (the band about a thin wire's centre line: 0.75 dx for a needle, 1.5 dx
-/// for a thread, shapes/shape_builder.h), and a needle's shaft
-/// friction within its reach; past a needle's arc ends no friction (the tip's resistance is
-/// the particles', needleTipResistance).
-MPM_HD bool contactNodeCurve(Vec3f x, float mass, Vec3f& v, const PartView& part, const BodyView& b, ContactSums& sums,
-                             int pass) {
-  Vec3f n;
-  const float phi = part.distance(x, n);
-  const bool inBand = phi < fmaxf(b.band, part.band);
-  const float rho = phi + part.radius;  // from the centre line
-  if (!inBand && !(rho < part.frictionReach)) return false;
-  bool beyond;
-  const Vec3f t = part.curveTangent(x, beyond);
-  const Vec3f c = x - phi * n;  // the wire's surface: rigid velocity and lever taken there
-  const Vec3f vRigid = b.velocityAt(c);
-  Vec3f vNew = inBand ? curveVelocity(v, vRigid, t, b) : v;
-  if (!beyond) vNew = needleShaftFriction(vNew, vRigid, t, rho, part, b.substepDt);
-  const Vec3f dp = mass * (v - vNew);
-  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) {
-    // a band node already moving with the curve is still held by it: its mass counts in
-    // the contact mass the applying pass records (Scene::segmentContactMasses)
-    if (pass == 1 && inBand) sums.mass += mass;
-    return false;
-  }
-  addContact(sums, dp, c - b.com, mass);
-  if (pass == 1) v = vNew;
-  return true;
-}
-
 /// Whether part `q` is a thread's segment (a thread's segments are consecutive capsule
 /// parts of kContactCurve bodies).
 MPM_HD bool isThreadSegment(const PartView* parts, int nParts, int q, const BodyView* bodies) {
@@ -335,34 +305,57 @@ MPM_HD bool nearerSegment(Vec3f x, const PartView* parts, int nParts, int p, con
   return false;
 }
 
-/// Contact of one grid node with one part. Pass 0 (dynamic bodies only) measures what an
-/// immovable body would take from the node without changing it; pass 1 applies the
-/// contact against the body's updated velocity and records the momentum exchanged.
-/// Returns true if the node touched the part (and `sums`, the part's body's, grew).
-/// `touchingCell`: the cell size dx when the node's material touches a shape
-/// (grid/block_grid.h, materialTouches), else 0; such a node is in contact up to
-/// kRestingReach (kGluedReach when bonded) cells outside the part even when the body's
-/// band is smaller.
+/// Where a grid node meets a part, as far as positions decide it: the node, its material
+/// (its mass, x-bar, touching share) and the part as placed for the substep. Only the
+/// velocities change from one contact pass to the next (a dynamic body's measuring passes,
+/// PB-MPM's cycles), so the CPU finds these once and applies them in every pass
+/// (CpuExec::Binning::contactPass); contactNodePart does both for one node.
+struct NodeContact {
+  Vec3f n;       ///< the contact normal; a curve's tangent
+  Vec3f c;       ///< the surface point along the normal: the rigid velocity and lever are taken there
+  float rho;     ///< a curve's part: the node's distance from its centre line
+  bool inBand;   ///< a curve's part: within its contact region (else only the shaft friction reaches it)
+  bool beyond;   ///< a curve's part: past a needle's arc ends
+  uint8_t node;  ///< CPU: the node within its block
+};
+
+/// Whether a grid node at `x` is in contact with part `p` (a curve's part: within its
+/// contact region or its shaft friction's reach), and if so where (`g`).
 ///
-/// Which side: a node's own signed distance cannot tell which side of a shape thinner than
-/// a cell its material is on (a node on a half-cell plate's mid-plane, or none inside it
-/// at all, would let material through or push it the wrong way). So the node also looks
-/// from where its material is, x-bar = sum w m x_p / m. When the node and its material lie
-/// on opposite sides of the shape (their normals disagree), the node is in contact if it
+/// Rigid parts, which side: a node's own signed distance cannot tell which side of a shape
+/// thinner than a cell its material is on (a node on a half-cell plate's mid-plane, or none
+/// inside it at all, would let material through or push it the wrong way). So the node also
+/// looks from where its material is, x-bar = sum w m x_p / m. When the node and its material
+/// lie on opposite sides of the shape (their normals disagree), the node is in contact if it
 /// lies behind the tangent plane seen from x-bar, phi(x-bar) + n(x-bar) . (x - x-bar) <
 /// band, and the normal is the one seen from x-bar. Otherwise the node's own distance
-/// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and
-/// hold material off it.
-MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float touchingCell, const PartView* parts, int nParts,
-                            int p, const BodyView* bodies, ContactSums& sums, int pass) {
+/// decides: the tangent-plane bound alone would reach nodes beside a shape's edges and hold
+/// material off it. `touchingCell`: the cell size dx when the node's material touches a
+/// shape (grid/block_grid.h, materialTouches), else 0; such a node is in contact up to
+/// kRestingReach (kGluedReach when bonded) cells outside the part even when the body's band
+/// is smaller.
+///
+/// Curves (kContactCurve): a node in contact with the thread's nearest segment only
+/// (nearerSegment), within the curve's contact region (the band about a thin wire's centre
+/// line: 0.75 dx for a needle, 1.5 dx for a thread, shapes/shape_builder.h) or a needle's
+/// shaft friction's reach; past a needle's arc ends no friction (the tip's resistance is the
+/// particles', needleTipResistance).
+MPM_HD bool nodeContactGeometry(Vec3f x, Vec3f xbar, float touchingCell, const PartView* parts, int nParts, int p,
+                                const BodyView* bodies, NodeContact& g) {
   const PartView& part = parts[p];
   const BodyView& b = bodies[part.body];
-  if (pass == 0 && !b.dynamic) return false;
+  Vec3f n;
   if (b.mode == kContactCurve) {
     if (nearerSegment(x, parts, nParts, p, bodies)) return false;
-    return contactNodeCurve(x, mass, v, part, b, sums, pass);
+    const float phi = part.distance(x, n);
+    g.inBand = phi < fmaxf(b.band, part.band);
+    g.rho = phi + part.radius;  // from the centre line
+    if (!g.inBand && !(g.rho < part.frictionReach)) return false;
+    g.n = part.curveTangent(x, g.beyond);
+    g.c = x - phi * n;  // the wire's surface
+    return true;
   }
-  Vec3f n, nBar;
+  Vec3f nBar;
   const float phiNode = part.distance(x, n);
   const float reach = (b.mode == kContactBonded ? kGluedReach : kRestingReach) * touchingCell;
   const float threshold = fmaxf(fmaxf(b.band, part.band), reach);
@@ -398,13 +391,48 @@ MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float tou
   // 0.75 dx off its axis, normals seen from x-bar) spun capsules resting on tissue about
   // their axis: +-5 rad/s for a 2 g rigid capsule of radius 0.2 dx, +4 to +8 rad/s for a
   // chain link on PB-MPM, which rolled it off and tipped it into the tissue.
-  const Vec3f c = x - phi * n;
-  const Vec3f vNew = contactVelocity(v, b.velocityAt(c), n, b);
+  g.n = n;
+  g.c = x - phi * n;
+  g.inBand = g.beyond = false;
+  return true;
+}
+
+/// The contact `g` (nodeContactGeometry) of a node of mass `mass` and velocity `v` with
+/// part `part` of body `b`. Pass 0 (dynamic bodies only) measures what an immovable body
+/// would take from the node without changing it; pass 1 applies the contact against the
+/// body's updated velocity and records the momentum exchanged. Returns true if the node
+/// touched the part (and `sums`, the part's body's, grew).
+MPM_HD bool applyNodeContact(const NodeContact& g, float mass, Vec3f& v, const PartView& part, const BodyView& b,
+                             ContactSums& sums, int pass) {
+  const Vec3f vRigid = b.velocityAt(g.c);
+  Vec3f vNew;
+  if (b.mode == kContactCurve) {
+    vNew = g.inBand ? curveVelocity(v, vRigid, g.n, b) : v;
+    if (!g.beyond) vNew = needleShaftFriction(vNew, vRigid, g.n, g.rho, part, b.substepDt);
+  } else {
+    vNew = contactVelocity(v, vRigid, g.n, b);
+  }
   const Vec3f dp = mass * (v - vNew);
-  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) return false;
-  addContact(sums, dp, c - b.com, mass);
+  if (dp.x == 0.f && dp.y == 0.f && dp.z == 0.f) {
+    // a curve's band node already moving with it is still held by it: its mass counts in
+    // the contact mass the applying pass records (Scene::segmentContactMasses)
+    if (pass == 1 && g.inBand) sums.mass += mass;
+    return false;
+  }
+  addContact(sums, dp, g.c - b.com, mass);
   if (pass == 1) v = vNew;
   return true;
+}
+
+/// Contact of one grid node with one part (nodeContactGeometry, then applyNodeContact);
+/// pass 0 asks only dynamic bodies.
+MPM_HD bool contactNodePart(Vec3f x, float mass, Vec3f& v, Vec3f xbar, float touchingCell, const PartView* parts, int nParts,
+                            int p, const BodyView* bodies, ContactSums& sums, int pass) {
+  const BodyView& b = bodies[parts[p].body];
+  if (pass == 0 && !b.dynamic) return false;
+  NodeContact g;
+  if (!nodeContactGeometry(x, xbar, touchingCell, parts, nParts, p, bodies, g)) return false;
+  return applyNodeContact(g, mass, v, parts[p], b, sums, pass);
 }
 
 /// A particle touches a shape when its centre is within this of the surface: its own half

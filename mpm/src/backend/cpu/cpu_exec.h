@@ -349,7 +349,7 @@ struct CpuExec {
       for (uint32_t b : occupied_) blockCount_[b] = 0;
 
       activate();
-      nearListed_ = false;  // the lists belong to the old active blocks
+      nearListed_ = contactsFound_ = false;  // the lists belong to the old active blocks
       for (size_t j = 0; j < occupied_.size(); ++j) occupiedRank_[occupied_[j]] = (int32_t)j;
       // P2G takes the blocks the most particles first: they are handed out one at a time,
       // and with the small ones last the threads finish together (a small scene has a few
@@ -435,6 +435,9 @@ struct CpuExec {
         for (long long a; (a = nextSlot.fetch_add(1)) < (long long)active_.size();)
           sumTiles<kMx, kDmv>(grid, (uint32_t)a, keepCentroids);
       });
+      // the same particles scattered again with their centroids kept (PB-MPM's later
+      // cycles) leave each node's mass, centroid and touch as they were: the contacts hold
+      if (!keepCentroids) contactsFound_ = false;
     }
 
     /// Active block `slot`'s nodes: cleared (clearNode), then the kept tiles that reach
@@ -579,6 +582,7 @@ struct CpuExec {
       for (const NearPair& q : nearPairs_)
         nearParts_[cursor_[q.slot]++] = NearPart{q.part, parts[q.part].boundsLower, parts[q.part].boundsUpper};
       nearListed_ = true;
+      contactsFound_ = false;  // the parts were placed anew
     }
 
     /// Grid contact with rigid parts, block by block: each part near the block
@@ -589,6 +593,14 @@ struct CpuExec {
     /// Only bodies near a block have a sum there: a block adds nothing to the others
     /// (nothing but +0, which leaves a sum as it was). `out` is zeroed first; with no parts
     /// (none in reach) that is all.
+    ///
+    /// The nodes in contact with each listed part, and where (nodeContactGeometry), are
+    /// found in the first pass after the material was scattered and kept for the passes
+    /// that follow until the particles are binned or scattered again (contacts_): only the
+    /// velocities change between them. A dynamic body has four passes a substep (three
+    /// measuring), PB-MPM's ten cycles forty; each had looked up every node's distances
+    /// again (2 distances for a node near a part). The same arithmetic in the same order:
+    /// the same bits.
     void contactPass(const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                      ContactSums* out, int pass, ThreadTeam& pool, int threads) {
       for (int b = 0; b < nBodies; ++b) out[b] = ContactSums{};
@@ -597,6 +609,11 @@ struct CpuExec {
       const GridView grid = gridView();
       const size_t nActive = active_.size();
       blockSums_.resize(nearParts_.size());
+      const bool find = !contactsFound_;
+      if (find) {
+        if (contacts_.size() < nearParts_.size() * kBlockNodes) contacts_.resize(nearParts_.size() * kBlockNodes);
+        contactCount_.resize(nearParts_.size());
+      }
       std::atomic<long long> next{0};
       const auto block = [&](long long slot) {
         const uint32_t begin = nearStart_[slot], end = nearStart_[slot + 1];
@@ -606,6 +623,7 @@ struct CpuExec {
         const int o[3] = {bx << kBlockBits, by << kBlockBits, bz << kBlockBits};
         const Vec3f lo = geo_.lower + geo_.dx * Vec3f{(float)o[0], (float)o[1], (float)o[2]};
         const Vec3f hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
+        GridNode* nodes = grid.nodes + slot * kBlockNodes;
         uint32_t run = begin;  // the sum of the current body's run
         for (uint32_t k = begin; k < end; ++k) {
           const int p = nearParts_[k].index;
@@ -613,19 +631,30 @@ struct CpuExec {
             run = k;
             blockSums_[run] = ContactSums{};
           }
-          if (!nearParts_[k].mayTouch(lo, hi)) continue;
-          // the measuring pass asks only dynamic bodies (contactNodePart): a static ground
-          // under the whole slab is not walked node by node for nothing
-          if (pass == 0 && !bodies[parts[p].body].dynamic) continue;
-          ContactSums& bodySums = blockSums_[run];
-          for (int n = 0; n < kBlockNodes; ++n) {
-            GridNode& node = grid.nodes[slot * kBlockNodes + n];
-            const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
-                                                         (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
-                                                         (float)(o[2] + (n & kBlockMask))};
-            if (!takesContact(node, x, geo_)) continue;
-            contactNodePart(x, node.mass, node.mv, (1.f / node.mass) * node.mx, materialTouches(node) ? geo_.dx : 0.f, parts,
-                            nParts, p, bodies, bodySums, pass);
+          NodeContact* contacts = &contacts_[(size_t)k * kBlockNodes];
+          if (find) {
+            contactCount_[k] = 0;
+            if (!nearParts_[k].mayTouch(lo, hi)) continue;
+            for (int n = 0; n < kBlockNodes; ++n) {
+              const GridNode& node = nodes[n];
+              const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
+                                                           (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
+                                                           (float)(o[2] + (n & kBlockMask))};
+              if (!takesContact(node, x, geo_)) continue;
+              NodeContact& g = contacts[contactCount_[k]];
+              if (!nodeContactGeometry(x, (1.f / node.mass) * node.mx, materialTouches(node) ? geo_.dx : 0.f, parts,
+                                       nParts, p, bodies, g))
+                continue;
+              g.node = (uint8_t)n;
+              ++contactCount_[k];
+            }
+          }
+          // the measuring pass asks only dynamic bodies (contactNodePart)
+          const BodyView& body = bodies[parts[p].body];
+          if (pass == 0 && !body.dynamic) continue;
+          for (int c = 0; c < contactCount_[k]; ++c) {
+            GridNode& node = nodes[contacts[c].node];
+            applyNodeContact(contacts[c], node.mass, node.mv, parts[p], body, blockSums_[run], pass);
           }
         }
       };
@@ -636,6 +665,7 @@ struct CpuExec {
       pool.run(nListed >= kMinParallelBlocks ? threads : 1, [&](int, int) {
         for (long long s; (s = next.fetch_add(1)) < nListed;) block(listed_[s]);
       });
+      contactsFound_ = true;
       for (size_t slot = 0; slot < nActive; ++slot)
         for (uint32_t k = nearStart_[slot]; k < nearStart_[slot + 1]; ++k) {
           const int b = parts[nearParts_[k].index].body;
@@ -687,7 +717,8 @@ struct CpuExec {
              byWork_.capacity() * 4 + tiles_.capacity() * sizeof(Float4) + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
              occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
-             nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums);
+             nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums) +
+             contacts_.capacity() * sizeof(NodeContact) + contactCount_.capacity();
     }
 
    private:
@@ -748,6 +779,11 @@ struct CpuExec {
     std::vector<uint32_t> listed_;      ///< the active slots whose list is not empty
     std::vector<NearPart> nearParts_;   ///< the lists, each in part order
     bool nearListed_ = false;           ///< the lists are this substep's
+    /// contactPass: per list entry k the nodes in contact with its part, from
+    /// k * kBlockNodes (contactCount_[k] of them), while contactsFound_
+    std::vector<NodeContact> contacts_;
+    std::vector<uint8_t> contactCount_;
+    mutable bool contactsFound_ = false;
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
 
     /// The box of active block `block`'s list: its nodes grown by kNearBelow cells below
