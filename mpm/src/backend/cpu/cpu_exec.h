@@ -611,11 +611,12 @@ struct CpuExec {
       blockSums_.resize(nearParts_.size());
       const bool find = !contactsFound_;
       if (find) {
-        if (contacts_.size() < nearParts_.size() * kBlockNodes) contacts_.resize(nearParts_.size() * kBlockNodes);
-        contactCount_.resize(nearParts_.size());
+        contactAt_.resize(nearParts_.size());
+        if ((int)contactsBy_.size() < threads) contactsBy_.resize(threads);
+        for (auto& c : contactsBy_) c.clear();
       }
       std::atomic<long long> next{0};
-      const auto block = [&](long long slot) {
+      const auto block = [&](long long slot, int t) {
         const uint32_t begin = nearStart_[slot], end = nearStart_[slot + 1];
         if (begin == end) return;
         int bx, by, bz;
@@ -631,28 +632,31 @@ struct CpuExec {
             run = k;
             blockSums_[run] = ContactSums{};
           }
-          NodeContact* contacts = &contacts_[(size_t)k * kBlockNodes];
+          ContactRun& at = contactAt_[k];
           if (find) {
-            contactCount_[k] = 0;
+            std::vector<NodeContact>& mine = contactsBy_[t];
+            at = ContactRun{(uint32_t)mine.size(), (uint8_t)t, 0};
             if (!nearParts_[k].mayTouch(lo, hi)) continue;
+            NodeContact g;
             for (int n = 0; n < kBlockNodes; ++n) {
               const GridNode& node = nodes[n];
               const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
                                                            (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
                                                            (float)(o[2] + (n & kBlockMask))};
               if (!takesContact(node, x, geo_)) continue;
-              NodeContact& g = contacts[contactCount_[k]];
               if (!nodeContactGeometry(x, (1.f / node.mass) * node.mx, materialTouches(node) ? geo_.dx : 0.f, parts,
                                        nParts, p, bodies, g))
                 continue;
               g.node = (uint8_t)n;
-              ++contactCount_[k];
+              mine.push_back(g);
             }
+            at.count = (uint8_t)(mine.size() - at.start);  // at most kBlockNodes (64)
           }
           // the measuring pass asks only dynamic bodies (contactNodePart)
           const BodyView& body = bodies[parts[p].body];
           if (pass == 0 && !body.dynamic) continue;
-          for (int c = 0; c < contactCount_[k]; ++c) {
+          const NodeContact* contacts = contactsBy_[at.thread].data() + at.start;
+          for (int c = 0; c < at.count; ++c) {
             GridNode& node = nodes[contacts[c].node];
             applyNodeContact(contacts[c], node.mass, node.mv, parts[p], body, blockSums_[run], pass);
           }
@@ -661,10 +665,17 @@ struct CpuExec {
       // the blocks with parts near, one at a time: they hold all the work, and in a small
       // scene they are few (a slab on a ground plane: its bottom layer), so handing out
       // every block in chunks left one thread with most of them
+      // A replay of a few thousand recorded contacts is shorter than waking a thread
+      // (PB-MPM's box on the slab: ~1500 contacts, forty passes a substep)
       const long long nListed = (long long)listed_.size();
-      pool.run(nListed >= kMinParallelBlocks ? threads : 1, [&](int, int) {
-        for (long long s; (s = next.fetch_add(1)) < nListed;) block(listed_[s]);
+      const bool parallel = nListed >= kMinParallelBlocks && (find || contactsTotal_ >= kMinParallel);
+      pool.run(parallel ? threads : 1, [&](int t, int) {
+        for (long long s; (s = next.fetch_add(1)) < nListed;) block(listed_[s], t);
       });
+      if (find) {
+        contactsTotal_ = 0;
+        for (const auto& c : contactsBy_) contactsTotal_ += (long long)c.size();
+      }
       contactsFound_ = true;
       for (size_t slot = 0; slot < nActive; ++slot)
         for (uint32_t k = nearStart_[slot]; k < nearStart_[slot + 1]; ++k) {
@@ -713,12 +724,13 @@ struct CpuExec {
     size_t memoryBytes() const {
       size_t runs = 0;
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
+      for (const auto& c : contactsBy_) runs += c.capacity() * sizeof(NodeContact);
       return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + occupiedRank_.capacity() * 4 +
              byWork_.capacity() * 4 + tiles_.capacity() * sizeof(Float4) + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
              occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
              nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums) +
-             contacts_.capacity() * sizeof(NodeContact) + contactCount_.capacity();
+             contactAt_.capacity() * sizeof(ContactRun);
     }
 
    private:
@@ -779,10 +791,17 @@ struct CpuExec {
     std::vector<uint32_t> listed_;      ///< the active slots whose list is not empty
     std::vector<NearPart> nearParts_;   ///< the lists, each in part order
     bool nearListed_ = false;           ///< the lists are this substep's
-    /// contactPass: per list entry k the nodes in contact with its part, from
-    /// k * kBlockNodes (contactCount_[k] of them), while contactsFound_
-    std::vector<NodeContact> contacts_;
-    std::vector<uint8_t> contactCount_;
+    /// contactPass: per list entry k the nodes in contact with its part
+    /// (contactAt_[k]: count of them from start in the records of the thread that found
+    /// them), while contactsFound_. Each thread appends to its own records, so they take
+    /// what the contacts need, not a block's nodes for every list entry.
+    struct ContactRun {
+      uint32_t start;
+      uint8_t thread, count;
+    };
+    std::vector<ContactRun> contactAt_;
+    std::vector<std::vector<NodeContact>> contactsBy_;
+    long long contactsTotal_ = 0;
     mutable bool contactsFound_ = false;
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
 
