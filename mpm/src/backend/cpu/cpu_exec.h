@@ -613,6 +613,7 @@ struct CpuExec {
       if (find) {
         contactAt_.resize(nearParts_.size());
         if ((int)contactsBy_.size() < threads) contactsBy_.resize(threads);
+        if ((int)candidatesBy_.size() < threads) candidatesBy_.resize(threads, std::vector<NodeCandidate>(kBlockNodes));
         for (auto& c : contactsBy_) c.clear();
       }
       std::atomic<long long> next{0};
@@ -625,6 +626,11 @@ struct CpuExec {
         const Vec3f lo = geo_.lower + geo_.dx * Vec3f{(float)o[0], (float)o[1], (float)o[2]};
         const Vec3f hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
         GridNode* nodes = grid.nodes + slot * kBlockNodes;
+        // The block's nodes that take contact at all, with where their material is: asked
+        // once for all the parts near the block (under 100 small spheres a block has about
+        // ten). Contact changes only velocities, never these.
+        NodeCandidate* candidates = find ? candidatesBy_[t].data() : nullptr;
+        int nCandidates = -1;  // not yet gathered
         uint32_t run = begin;  // the sum of the current body's run
         for (uint32_t k = begin; k < end; ++k) {
           const int p = nearParts_[k].index;
@@ -637,17 +643,23 @@ struct CpuExec {
             std::vector<NodeContact>& mine = contactsBy_[t];
             at = ContactRun{(uint32_t)mine.size(), (uint8_t)t, 0};
             if (!nearParts_[k].mayTouch(lo, hi)) continue;
+            if (nCandidates < 0) {
+              nCandidates = 0;
+              for (int n = 0; n < kBlockNodes; ++n) {
+                const GridNode& node = nodes[n];
+                const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
+                                                             (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
+                                                             (float)(o[2] + (n & kBlockMask))};
+                if (!takesContact(node, x, geo_)) continue;
+                candidates[nCandidates++] = NodeCandidate{x, (1.f / node.mass) * node.mx,
+                                                          materialTouches(node) ? geo_.dx : 0.f, (uint8_t)n};
+              }
+            }
             NodeContact g;
-            for (int n = 0; n < kBlockNodes; ++n) {
-              const GridNode& node = nodes[n];
-              const Vec3f x = geo_.lower + geo_.dx * Vec3f{(float)(o[0] + (n >> (2 * kBlockBits))),
-                                                           (float)(o[1] + ((n >> kBlockBits) & kBlockMask)),
-                                                           (float)(o[2] + (n & kBlockMask))};
-              if (!takesContact(node, x, geo_)) continue;
-              if (!nodeContactGeometry(x, (1.f / node.mass) * node.mx, materialTouches(node) ? geo_.dx : 0.f, parts,
-                                       nParts, p, bodies, g))
-                continue;
-              g.node = (uint8_t)n;
+            for (int c = 0; c < nCandidates; ++c) {
+              const NodeCandidate& q = candidates[c];
+              if (!nodeContactGeometry(q.x, q.xbar, q.touchingCell, parts, nParts, p, bodies, g)) continue;
+              g.node = q.node;
               mine.push_back(g);
             }
             at.count = (uint8_t)(mine.size() - at.start);  // at most kBlockNodes (64)
@@ -725,6 +737,7 @@ struct CpuExec {
       size_t runs = 0;
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
       for (const auto& c : contactsBy_) runs += c.capacity() * sizeof(NodeContact);
+      runs += candidatesBy_.size() * kBlockNodes * sizeof(NodeCandidate);
       return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + occupiedRank_.capacity() * 4 +
              byWork_.capacity() * 4 + tiles_.capacity() * sizeof(Float4) + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
@@ -795,12 +808,18 @@ struct CpuExec {
     /// (contactAt_[k]: count of them from start in the records of the thread that found
     /// them), while contactsFound_. Each thread appends to its own records, so they take
     /// what the contacts need, not a block's nodes for every list entry.
+    struct NodeCandidate {  ///< contactPass: a node that takes contact (takesContact)
+      Vec3f x, xbar;
+      float touchingCell;
+      uint8_t node;
+    };
     struct ContactRun {
       uint32_t start;
       uint8_t thread, count;
     };
     std::vector<ContactRun> contactAt_;
     std::vector<std::vector<NodeContact>> contactsBy_;
+    std::vector<std::vector<NodeCandidate>> candidatesBy_;  ///< per thread: one block's candidates
     long long contactsTotal_ = 0;
     mutable bool contactsFound_ = false;
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
