@@ -596,8 +596,8 @@ struct CpuExec {
     ///
     /// The nodes in contact with each listed part, and where (nodeContactGeometry), are
     /// found in the first pass after the material was scattered and kept for the passes
-    /// that follow until the particles are binned or scattered again (contacts_): only the
-    /// velocities change between them. A dynamic body has four passes a substep (three
+    /// that follow until the particles are binned or scattered again (contactAt_,
+    /// contactsBy_): only the velocities change between them. A dynamic body has four passes a substep (three
     /// measuring), PB-MPM's ten cycles forty; each had looked up every node's distances
     /// again (2 distances for a node near a part). The same arithmetic in the same order:
     /// the same bits.
@@ -676,18 +676,17 @@ struct CpuExec {
       };
       // the blocks with parts near, one at a time: they hold all the work, and in a small
       // scene they are few (a slab on a ground plane: its bottom layer), so handing out
-      // every block in chunks left one thread with most of them
-      // A replay of a few thousand recorded contacts is shorter than waking a thread
-      // (PB-MPM's box on the slab: ~1500 contacts, forty passes a substep)
+      // every block in chunks left one thread with most of them. A replay of a few
+      // thousand recorded contacts is shorter than waking a thread (PB-MPM's box on the
+      // slab: ~1500 contacts, forty passes a substep).
       const long long nListed = (long long)listed_.size();
-      const bool parallel = nListed >= kMinParallelBlocks && (find || contactsTotal_ >= kMinParallel);
+      size_t recorded = 0;
+      if (!find)
+        for (const auto& c : contactsBy_) recorded += c.size();
+      const bool parallel = nListed >= kMinParallelBlocks && (find || recorded >= (size_t)kMinParallel);
       pool.run(parallel ? threads : 1, [&](int t, int) {
         for (long long s; (s = next.fetch_add(1)) < nListed;) block(listed_[s], t);
       });
-      if (find) {
-        contactsTotal_ = 0;
-        for (const auto& c : contactsBy_) contactsTotal_ += (long long)c.size();
-      }
       contactsFound_ = true;
       for (size_t slot = 0; slot < nActive; ++slot)
         for (uint32_t k = nearStart_[slot]; k < nearStart_[slot + 1]; ++k) {
@@ -804,10 +803,6 @@ struct CpuExec {
     std::vector<uint32_t> listed_;      ///< the active slots whose list is not empty
     std::vector<NearPart> nearParts_;   ///< the lists, each in part order
     bool nearListed_ = false;           ///< the lists are this substep's
-    /// contactPass: per list entry k the nodes in contact with its part
-    /// (contactAt_[k]: count of them from start in the records of the thread that found
-    /// them), while contactsFound_. Each thread appends to its own records, so they take
-    /// what the contacts need, not a block's nodes for every list entry.
     struct NodeCandidate {  ///< contactPass: a node that takes contact (takesContact)
       Vec3f x, xbar;
       float touchingCell;
@@ -817,10 +812,14 @@ struct CpuExec {
       uint32_t start;
       uint8_t thread, count;
     };
+    /// contactPass: per list entry k the nodes in contact with its part (contactAt_[k]:
+    /// `count` of them from `start` in the records of the thread that found them), valid
+    /// while contactsFound_ (mutable: the const P2G invalidates them). Each thread appends
+    /// to its own records, so they take what the contacts need, not a block's nodes for
+    /// every list entry.
     std::vector<ContactRun> contactAt_;
     std::vector<std::vector<NodeContact>> contactsBy_;
     std::vector<std::vector<NodeCandidate>> candidatesBy_;  ///< per thread: one block's candidates
-    long long contactsTotal_ = 0;
     mutable bool contactsFound_ = false;
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
 
