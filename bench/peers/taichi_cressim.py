@@ -183,7 +183,9 @@ def build(n_particles, grid_kind, serial_p2g=False):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--half-size", type=float, default=1.0, help="box half-size [m]: 1, 2.5, 5 give 8k, 125k, 1M")
-    ap.add_argument("--threads", type=int, default=1, help="cpu_max_num_threads")
+    ap.add_argument("--arch", choices=["cpu", "cuda"], default="cpu",
+                    help="Taichi backend: cpu (the CPU peer), or cuda (the GPU peer of --backend cuda)")
+    ap.add_argument("--threads", type=int, default=1, help="cpu_max_num_threads (cpu only)")
     ap.add_argument("--frames", type=int, default=50, help="timed frames")
     ap.add_argument("--warmup", type=int, default=2, help="untimed frames first (JIT compilation)")
     ap.add_argument("--grid", choices=["dense", "pointer", "bitmasked"], default="dense")
@@ -193,8 +195,11 @@ def main():
     ap.add_argument("--trajectory", metavar="FILE", help="write frame,t,com_x,com_y,com_z,min_y per frame; no timing")
     args = ap.parse_args()
 
-    ti.init(arch=ti.cpu, cpu_max_num_threads=args.threads, default_fp=ti.f32, random_seed=0,
-            log_level=ti.WARN)
+    if args.arch == "cuda":
+        ti.init(arch=ti.cuda, default_fp=ti.f32, random_seed=0, log_level=ti.WARN)
+    else:
+        ti.init(arch=ti.cpu, cpu_max_num_threads=args.threads, default_fp=ti.f32, random_seed=0,
+                log_level=ti.WARN)
     pos = lattice(args.half_size)
     n = pos.shape[0]
     init, frame, x = build(n, args.grid, args.serialize)
@@ -226,7 +231,7 @@ def main():
     other = None if busy0 is None or busy1 is None else max(0.0, (busy1 - busy0 - cpu) / wall)
     ms = 1e3 * wall / args.frames
     print(json.dumps({
-        "peer": "taichi", "taichi": ".".join(str(v) for v in ti.__version__), "grid": args.grid,
+        "peer": "taichi", "taichi": ".".join(str(v) for v in ti.__version__), "arch": args.arch, "grid": args.grid,
         "serialize": args.serialize, "half_size": args.half_size, "particles": n, "threads": args.threads, "frames": args.frames,
         "warmup_s": round(t_compile, 3), "ms_per_frame": round(ms, 4),
         "cpu_ms_per_frame": round(1e3 * cpu / args.frames, 4),

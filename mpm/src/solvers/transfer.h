@@ -43,6 +43,25 @@ MPM_HD float apicInverseInertia(const GridGeometry& geo) { return 4.f * geo.invD
 // per-axis weights, so sums over the stencil are taken axis by axis (k innermost) and
 // node values move as Float4 {mass, x, y, z}, one short vector per node.
 
+/// Which node fields a P2G kernel adds to, from its optional flags (all, if it has none):
+/// kCentroidSums (w m x_p and w m touch), kStressImpulse (dt f). A backend that sums the
+/// particles of a grid block in a tile first (the CPU's BlockTile, the GPU's shared-memory
+/// tile) keeps only these.
+template <class F, class = void>
+struct UsesCentroid : std::true_type {};
+template <class F>
+struct UsesCentroid<F, std::void_t<decltype(F::kCentroidSums)>> : std::bool_constant<F::kCentroidSums> {};
+template <class F, class = void>
+struct UsesImpulse : std::true_type {};
+template <class F>
+struct UsesImpulse<F, std::void_t<decltype(F::kStressImpulse)>> : std::bool_constant<F::kStressImpulse> {};
+/// Whether a G2P kernel reads the velocity before the force (oldVelocity4), from its
+/// optional flag kOldVelocity (standard MPM's FLIP); yes if it has none.
+template <class F, class = void>
+struct UsesOldVelocity : std::true_type {};
+template <class F>
+struct UsesOldVelocity<F, std::void_t<decltype(F::kOldVelocity)>> : std::bool_constant<F::kOldVelocity> {};
+
 /// One particle's APIC scatter before its weights: the node at offset (i, j, k) from its
 /// stencil base takes w_ijk (q0 + i qx + j qy + k qz) as {mass, momentum}, and with
 /// kCentroid w_ijk mx4 as {w m touch_p, w m x_p}.

@@ -34,17 +34,9 @@
 
 namespace mpm {
 
-/// Which tile fields a transfer kernel uses, from its optional flags (all, if it has none):
-/// kCentroidSums (P2G adds w m x_p), kStressImpulse (P2G adds dt f), kOldVelocity (G2P
-/// reads the velocity before the force).
-template <class F, class = void>
-struct UsesCentroid : std::true_type {};
-template <class F>
-struct UsesCentroid<F, std::void_t<decltype(F::kCentroidSums)>> : std::bool_constant<F::kCentroidSums> {};
-template <class F, class = void>
-struct UsesImpulse : std::true_type {};
-template <class F>
-struct UsesImpulse<F, std::void_t<decltype(F::kStressImpulse)>> : std::bool_constant<F::kStressImpulse> {};
+// Which tile fields a transfer kernel uses: UsesCentroid, UsesImpulse, UsesOldVelocity
+// (solvers/transfer.h).
+
 /// kBatchedStress: P2G needs of the material only tau = kirchhoffStress(materials[
 /// P.object[p]], P.F[p]) and takes it in scatterStressed(p, tau, nodes), so the CPU
 /// computes it for a run of particles at once (kirchhoffStressBatch).
@@ -79,10 +71,6 @@ template <class F, class = void>
 struct BatchesSums : std::false_type {};
 template <class F>
 struct BatchesSums<F, std::void_t<decltype(F::kBatchedSums)>> : std::bool_constant<F::kBatchedSums> {};
-template <class F, class = void>
-struct UsesOldVelocity : std::true_type {};
-template <class F>
-struct UsesOldVelocity<F, std::void_t<decltype(F::kOldVelocity)>> : std::bool_constant<F::kOldVelocity> {};
 
 /// The 6^3 nodes a block's particles reach, as dense arrays of Float4 (one vector load,
 /// add and store per node and field).

@@ -1,10 +1,15 @@
 #pragma once
-// CUDA execution backend: device memory, one launch helper, atomics for P2G, and
-// binning with CCCL (thrust) sorts. The development and CI machines have no GPU: this is
-// compiled and linked there and run only where a device is present (the whole suite passed
-// on an H100 once); the kernel bodies it launches are the ones the CPU tests exercise.
+// CUDA execution backend: device memory, one launch helper, binning with CCCL (CUB and
+// thrust), and the launches of the transfers (tile_transfers.cuh). The development and CI
+// machines have no GPU: this is compiled and linked there and run only where a device is
+// present (the whole suite passed on an H100 once, the CUDA test cases on an H200); the
+// kernel bodies it launches are the ones the CPU tests exercise.
 #include <cuda_runtime.h>
+#include <cub/device/device_radix_sort.cuh>
+#include <cub/device/device_select.cuh>
 #include <thrust/execution_policy.h>
+#include <thrust/iterator/counting_iterator.h>
+#include <thrust/iterator/transform_iterator.h>
 #include <thrust/system/cuda/execution_policy.h>
 #include <thrust/sequence.h>
 #include <thrust/sort.h>
@@ -13,6 +18,7 @@
 #include <map>
 #include <string>
 
+#include "backend/cuda/tile_transfers.cuh"
 #include "backend/sim_backend.h"
 #include "solvers/transfer.h"
 
@@ -29,32 +35,12 @@ __global__ void forEachKernel(size_t n, F f) {
   if (i < n) f(i);
 }
 
-/// G2P of every particle straight from the grid, folding each StepCheck into one
-/// device-side check with atomics.
-template <class F, class Nodes>
-__global__ void gridToParticleKernel(size_t n, F f, Nodes nodes, unsigned int* maxSpeed2Bits,
-                                     uint32_t* firstBad) {
-  const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= n) return;
-  const StepCheck c = f((uint32_t)i, nodes);
-  // non-negative floats order like their bit patterns
-  atomicMax(maxSpeed2Bits, __float_as_uint(c.maxSpeed2));
-  if (c.firstBadParticle != 0xffffffffu) atomicMin(firstBad, c.firstBadParticle);
-}
-
 /// clearNode of every node, before P2G adds to them.
 struct ClearNodes {
   GridNode* nodes;
   bool keepCentroids;
   MPM_HD void operator()(size_t n) const { clearNode(nodes[n], keepCentroids); }
 };
-
-/// P2G of every particle, in block order so neighbouring threads hit neighbouring nodes.
-template <class F, class Nodes>
-__global__ void particleToGridKernel(size_t n, const uint32_t* order, F f, Nodes nodes) {
-  const size_t i = (size_t)blockIdx.x * blockDim.x + threadIdx.x;
-  if (i < n) f(order[i], nodes);
-}
 
 /// Grid contact per active node; each touched part's momentum exchange is added
 /// atomically to its body's sums.
@@ -130,22 +116,22 @@ class ScratchAllocator {
 
 struct CudaExec {
   static constexpr int kThreads = 256;
+  /// Threads of the transfers' CUDA blocks, one per occupied grid block (a few hundred
+  /// particles): 128 where there are blocks enough to fill the device several times over
+  /// (more blocks per multiprocessor hide more latency), else 256, so that a small scene's
+  /// few blocks take their particles in fewer rounds (256 threads launch with any register
+  /// count a kernel may need, up to 255).
+  unsigned int tileThreads(size_t occupied) const { return occupied >= 4 * (size_t)multiprocessors_ ? 128u : 256u; }
 
-  /// GPU threads of different particles meet on the same node: accumulate atomically.
-  struct Add {
-    MPM_HD static void add(float& a, float b) {
-#ifdef __CUDA_ARCH__
-      atomicAdd(&a, b);
-#else
-      a += b;
-#endif
-    }
-  };
+  using Add = AtomicAdd;
 
   /// Each scene's work goes to its own stream, so the steps of scenes advanced together
   /// (SceneBatch) overlap on the device. A blocking stream: it still waits for work left on
   /// the legacy default stream, should anything launch there.
   CudaExec() {
+    int device = 0;
+    cudaCheck(cudaGetDevice(&device), "cudaGetDevice");
+    cudaCheck(cudaDeviceGetAttribute(&multiprocessors_, cudaDevAttrMultiProcessorCount, device), "device attributes");
     cudaCheck(cudaStreamCreate(&stream_), "cudaStreamCreate");
     cudaCheck(cudaMalloc(&checkBuffer_, 2 * sizeof(uint32_t)), "cudaMalloc(check)");
     resetCheck();
@@ -230,31 +216,55 @@ struct CudaExec {
  private:
   cudaStream_t stream_ = nullptr;
   uint32_t* checkBuffer_ = nullptr;
+  int multiprocessors_ = 1;
 };
 
 namespace cuda_kernels {
 
+/// A particle's sort key: its stencil base's block, then the cell within the block
+/// (kBlockBits bits per axis), so that a block's particles lie together and within them
+/// each cell's (P2G's WarpGroup). Particles whose stencil leaves the grid: 0.
 struct ParticleKeys {
   ParticleView P;
   GridGeometry geo;
   uint32_t* keys;
   MPM_HD void operator()(size_t i) const {
-    keys[i] = geo.stencilInside(P.x[i]) ? geo.particleBlock(P.x[i]) : 0u;
+    if (!geo.stencilInside(P.x[i])) {
+      keys[i] = 0u;
+      return;
+    }
+    int base[3];
+    Vec3f fx;
+    geo.stencilBase(P.x[i], base, fx);
+    const uint32_t block = geo.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    const uint32_t cell = (uint32_t)((((base[0] & kBlockMask) << kBlockBits) | (base[1] & kBlockMask)) << kBlockBits |
+                                     (base[2] & kBlockMask));
+    keys[i] = block << kCellKeyBits | cell;
   }
+  static constexpr int kCellKeyBits = 3 * kBlockBits;
 };
 
-/// The eight blocks an occupied block's particles reach (sentinel outside the grid).
+/// The block of a sort key (ParticleKeys).
+struct KeyBlock {
+  MPM_HD uint32_t operator()(uint32_t key) const { return key >> ParticleKeys::kCellKeyBits; }
+};
+
+/// The eight blocks an occupied block's particles reach (those outside the grid: the block
+/// itself); past the occupied count, the first occupied block's eight.
 struct StencilBlocks {
   GridGeometry geo;
   const uint32_t* occupied;
+  const uint32_t* occupiedCount;
   uint32_t* candidates;
   MPM_HD void operator()(size_t j) const {
+    const uint32_t block = occupied[j < *occupiedCount ? j : 0];
     int bx, by, bz;
-    geo.blockCoords(occupied[j], bx, by, bz);
+    geo.blockCoords(block, bx, by, bz);
     for (int c = 0; c < 8; ++c) {
       const int x = bx + (c & 1), y = by + ((c >> 1) & 1), z = bz + (c >> 2);
       const bool inside = x < geo.blocks[0] && y < geo.blocks[1] && z < geo.blocks[2];
-      candidates[8 * j + c] = inside ? geo.blockIndex(x, y, z) : 0xffffffffu;
+      // outside the grid: the block itself again, which the unique blocks drop
+      candidates[8 * j + c] = inside ? geo.blockIndex(x, y, z) : block;
     }
   }
 };
@@ -264,6 +274,14 @@ struct SetSlot {
   const uint32_t* active;
   int clear;
   MPM_HD void operator()(size_t k) const { blockSlot[active[k]] = clear ? -1 : (int32_t)k; }
+};
+
+/// The end of the last run: runStart[runCount] = n.
+struct EndRuns {
+  uint32_t* runStart;
+  const uint32_t* runCount;
+  uint32_t n;
+  MPM_HD void operator()(size_t) const { runStart[*runCount] = n; }
 };
 
 struct FillInt {
@@ -278,40 +296,61 @@ class CudaExec::Binning {
  public:
   Binning(CudaExec& exec, const GridGeometry& geo) : exec_(exec), geo_(geo) {
     blocks_ = (size_t)geo.blocks[0] * geo.blocks[1] * geo.blocks[2];
+    if (blocks_ > (size_t{1} << (32 - cuda_kernels::ParticleKeys::kCellKeyBits)))
+      throw InvalidArgument("SceneSettings.domain (CUDA backend)", std::to_string(blocks_) + " grid blocks",
+                            "at most 2^26 blocks of 4^3 nodes (a particle's sort key is 32 bits)");
     blockSlot_ = exec_.allocate<int32_t>(blocks_);
+    runCount_ = exec_.allocate<uint32_t>(1);
     exec_.forEach(blocks_, cuda_kernels::FillInt{blockSlot_, -1});
   }
   ~Binning() {
-    for (void* p : {(void*)blockSlot_, (void*)keys_, (void*)order_, (void*)candidates_,
-                    (void*)active_, (void*)nodes_})
+    for (void* p : {(void*)blockSlot_, (void*)runCount_, (void*)keys_, (void*)keysAlt_, (void*)order_, (void*)orderAlt_,
+                    (void*)runBlock_, (void*)runStart_, (void*)candidates_, (void*)active_, (void*)nodes_})
       if (p) exec_.release(p);
   }
 
   void build(const ParticleView& P) {
     const size_t n = P.count;
+    count_ = n;
+    if (n == 0) return;
     grow(keys_, keysCap_, n);
+    grow(keysAlt_, keysAltCap_, n);
     grow(order_, orderCap_, n);
+    grow(orderAlt_, orderAltCap_, n);
     exec_.forEach(n, cuda_kernels::ParticleKeys{P, geo_, keys_});
-    const auto policy = thrust::cuda::par(scratch_).on(exec_.stream());
-    thrust::sequence(policy, order_, order_ + n);
-    thrust::stable_sort_by_key(policy, keys_, keys_ + n, order_);
-    // occupied blocks, in place at the front of keys_
-    const size_t occupied = thrust::unique(policy, keys_, keys_ + n) - keys_;
-    grow(candidates_, candidatesCap_, 8 * occupied);
-    exec_.forEach(occupied, cuda_kernels::StencilBlocks{geo_, keys_, candidates_});
-    thrust::sort(policy, candidates_, candidates_ + 8 * occupied);
-    size_t active = thrust::unique(policy, candidates_, candidates_ + 8 * occupied) - candidates_;
-    uint32_t last = 0;
-    if (active) exec_.copyToHost(&last, candidates_ + active - 1, sizeof last);
-    if (active && last == 0xffffffffu) --active;  // drop the sentinel
-
-    exec_.forEach(activeCount_, cuda_kernels::SetSlot{blockSlot_, active_, 1});
-    grow(active_, activeCap_, active);
-    exec_.copyOnDevice(active_, candidates_, active * sizeof(uint32_t));
-    activeCount_ = active;
+    // The host waits for the device once per binning, for the active-block count that sizes
+    // the node arrays and the node launches; the occupied blocks stay a device-side count
+    // (runCount_), the transfers launching one CUDA block per possible one: no more than the
+    // particles, the grid's blocks or the active blocks (each occupied block is active).
+    const auto queued = thrust::cuda::par_nosync(scratch_).on(exec_.stream());
+    const auto counted = thrust::cuda::par(scratch_).on(exec_.stream());
+    thrust::sequence(queued, order_, order_ + n);
+    sortByKey(n);
+    // the occupied blocks and where each one's particles start in the order (P2G's runs)
+    const size_t runsBound = std::min(n, blocks_);
+    grow(runBlock_, runBlockCap_, runsBound);
+    grow(runStart_, runStartCap_, runsBound + 1);
+    const auto blockOf = thrust::make_transform_iterator(keys_, cuda_kernels::KeyBlock{});
+    size_t bytes = 0;
+    cudaCheck(cub::DeviceSelect::UniqueByKey(nullptr, bytes, blockOf, thrust::counting_iterator<uint32_t>(0), runBlock_,
+                                             runStart_, runCount_, (int64_t)n, exec_.stream()),
+              "unique blocks (size)");
+    char* temp = scratch_.allocate((std::ptrdiff_t)bytes);
+    cudaCheck(cub::DeviceSelect::UniqueByKey(temp, bytes, blockOf, thrust::counting_iterator<uint32_t>(0), runBlock_,
+                                             runStart_, runCount_, (int64_t)n, exec_.stream()),
+              "unique blocks");
+    scratch_.deallocate(temp, bytes);
+    exec_.forEach(1, cuda_kernels::EndRuns{runStart_, runCount_, (uint32_t)n});
+    // the blocks their stencils reach: the active blocks, which get slots
+    grow(candidates_, candidatesCap_, 8 * runsBound);
+    exec_.forEach(runsBound, cuda_kernels::StencilBlocks{geo_, runBlock_, runCount_, candidates_});
+    thrust::sort(queued, candidates_, candidates_ + 8 * runsBound);
+    exec_.forEach(activeCount_, cuda_kernels::SetSlot{blockSlot_, active_, 1});  // the last binning's
+    grow(active_, activeCap_, 8 * runsBound);
+    activeCount_ = thrust::unique_copy(counted, candidates_, candidates_ + 8 * runsBound, active_) - active_;
+    occupiedBound_ = std::min(runsBound, activeCount_);
     exec_.forEach(activeCount_, cuda_kernels::SetSlot{blockSlot_, active_, 0});
     grow(nodes_, nodesCap_, activeCount_ * kBlockNodes);
-    count_ = n;
   }
 
   GridView gridView() const {
@@ -325,12 +364,43 @@ class CudaExec::Binning {
   }
   const uint32_t* order() const { return order_; }
   size_t count() const { return count_; }
+  /// Grid blocks that hold particles (their stencil bases): at most occupiedBound(), their
+  /// number on the device (runCount()), and where each one's run of particles starts in
+  /// order() (runCount() + 1 entries, the last one count()).
+  size_t occupiedBound() const { return occupiedBound_; }
+  const uint32_t* runCount() const { return runCount_; }
+  const uint32_t* runBlocks() const { return runBlock_; }
+  const uint32_t* runStarts() const { return runStart_; }
   size_t memoryBytes() const {
-    return blocks_ * 4 + (keysCap_ + orderCap_ + candidatesCap_ + activeCap_) * 4 +
+    return blocks_ * 4 +
+           (keysCap_ + keysAltCap_ + orderCap_ + orderAltCap_ + runBlockCap_ + runStartCap_ + candidatesCap_ + activeCap_) *
+               4 +
            nodesCap_ * sizeof(GridNode) + scratch_.bytes();
   }
 
  private:
+  /// Sorts keys_ with order_ by the key bits that can be set (the grid's block count and
+  /// the cell within the block: 18 of 32 bits for the 56^3-node CRESSim grid, three radix
+  /// passes instead of four); the sorted arrays may come back in the other buffers.
+  void sortByKey(size_t n) {
+    const int bits = keyBits();
+    cub::DoubleBuffer<uint32_t> keys(keys_, keysAlt_), order(order_, orderAlt_);
+    size_t bytes = 0;
+    cudaCheck(cub::DeviceRadixSort::SortPairs(nullptr, bytes, keys, order, (int)n, 0, bits, exec_.stream()),
+              "radix sort (size)");
+    char* temp = scratch_.allocate((std::ptrdiff_t)bytes);
+    cudaCheck(cub::DeviceRadixSort::SortPairs(temp, bytes, keys, order, (int)n, 0, bits, exec_.stream()), "radix sort");
+    scratch_.deallocate(temp, bytes);  // kept for the next sort, which the stream orders after this one
+    if (keys.Current() != keys_) std::swap(keys_, keysAlt_);
+    if (order.Current() != order_) std::swap(order_, orderAlt_);
+  }
+  int keyBits() const {
+    const uint64_t keys = (uint64_t)blocks_ << cuda_kernels::ParticleKeys::kCellKeyBits;
+    int bits = 1;
+    while (bits < 32 && (uint64_t{1} << bits) < keys) ++bits;
+    return bits;
+  }
+
   /// Grows a device array to at least n elements (contents not kept); never shrinks,
   /// so a scene at steady size allocates nothing inside the step.
   template <class T>
@@ -344,10 +414,13 @@ class CudaExec::Binning {
   CudaExec& exec_;
   ScratchAllocator scratch_;
   GridGeometry geo_;
-  size_t blocks_ = 0, count_ = 0, activeCount_ = 0;
+  size_t blocks_ = 0, count_ = 0, occupiedBound_ = 0, activeCount_ = 0;
   int32_t* blockSlot_ = nullptr;
-  uint32_t *keys_ = nullptr, *order_ = nullptr, *candidates_ = nullptr, *active_ = nullptr;
-  size_t keysCap_ = 0, orderCap_ = 0, candidatesCap_ = 0, activeCap_ = 0, nodesCap_ = 0;
+  uint32_t* runCount_ = nullptr;
+  uint32_t *keys_ = nullptr, *keysAlt_ = nullptr, *order_ = nullptr, *orderAlt_ = nullptr, *runBlock_ = nullptr,
+           *runStart_ = nullptr, *candidates_ = nullptr, *active_ = nullptr;
+  size_t keysCap_ = 0, keysAltCap_ = 0, orderCap_ = 0, orderAltCap_ = 0, runBlockCap_ = 0, runStartCap_ = 0,
+         candidatesCap_ = 0, activeCap_ = 0, nodesCap_ = 0;
   GridNode* nodes_ = nullptr;
 };
 
@@ -367,8 +440,9 @@ void CudaExec::particleToGrid(const Binning& b, const F& f, bool keepCentroids) 
   const GridView grid = b.gridView();
   forEach((size_t)grid.activeCount * kBlockNodes, ClearNodes{grid.nodes, keepCentroids});
   if (b.count() == 0) return;
-  particleToGridKernel<<<blocksFor(b.count()), kThreads, 0, stream_>>>(b.count(), b.order(), f,
-                                                                      GridNodes<Add>{grid});
+  particleToTileKernel<UsesCentroid<F>::value, UsesImpulse<F>::value>
+      <<<(unsigned int)b.occupiedBound(), tileThreads(b.occupiedBound()), 0, stream_>>>(
+          b.order(), b.runCount(), b.runStarts(), b.runBlocks(), f, grid);
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
@@ -377,8 +451,8 @@ void CudaExec::gridToParticle(const Binning& b, const F& f) {
   if (b.count() == 0) return;
   // the speed that matters for the next substep count is the latest one
   cudaCheck(cudaMemsetAsync(checkBuffer_, 0, sizeof(uint32_t), stream_), "reset speed");
-  gridToParticleKernel<<<blocksFor(b.count()), kThreads, 0, stream_>>>(
-      b.count(), f, GridNodes<Add>{b.gridView()}, checkBuffer_, checkBuffer_ + 1);
+  gridToTileKernel<UsesOldVelocity<F>::value><<<(unsigned int)b.occupiedBound(), tileThreads(b.occupiedBound()), 0, stream_>>>(
+      b.order(), b.runCount(), b.runStarts(), b.runBlocks(), f, b.gridView(), checkBuffer_, checkBuffer_ + 1);
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
