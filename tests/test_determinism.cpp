@@ -4,6 +4,7 @@
 // solver, so a change that alters the physics shows.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -148,6 +149,49 @@ INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solv
 // its slot, waits at the barrier, then reads all the others': a barrier that let one member
 // through early reads a slot still holding the previous round's value. Runs of 2, 3 and 1
 // members in turn, so workers sit out some runs (they must still report back).
+// The GPU's binning sorts particles by GridGeometry::particleKey so that a block's particles
+// lie together and within them each stencil cell's (its P2G sums a cell's warp lanes before
+// adding them to the block's tile): the key must order by block first, then by the stencil
+// base's cell, and give the block back.
+TEST(Binning, GpuSortKeyOrdersByBlockThenCell) {
+  GridGeometry geo;
+  geo.lower = {-1.f, -1.f, -1.f};
+  geo.dx = 0.05f;
+  geo.invDx = 1.f / geo.dx;
+  for (int a = 0; a < 3; ++a) {
+    geo.cells[a] = 40;
+    geo.blocks[a] = (geo.cells[a] + kBlockSize) / kBlockSize;
+  }
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> inBox(-0.95f, 0.95f);
+  std::vector<Vec3f> x(5000);
+  for (Vec3f& p : x) p = {inBox(rng), inBox(rng), inBox(rng)};
+  const auto baseOf = [&](const Vec3f& p) {
+    int b[3];
+    Vec3f fx;
+    geo.stencilBase(p, b, fx);
+    return std::array<int, 3>{b[0], b[1], b[2]};
+  };
+  std::sort(x.begin(), x.end(), [&](const Vec3f& a, const Vec3f& b) { return geo.particleKey(a) < geo.particleKey(b); });
+  for (size_t i = 0; i < x.size(); ++i) {
+    ASSERT_TRUE(geo.stencilInside(x[i]));
+    EXPECT_EQ(GridGeometry::keyBlock(geo.particleKey(x[i])), geo.particleBlock(x[i])) << i;
+    if (i == 0) continue;
+    const uint32_t blockA = geo.particleBlock(x[i - 1]), blockB = geo.particleBlock(x[i]);
+    ASSERT_LE(blockA, blockB) << "blocks out of order at " << i;
+    // equal keys <=> equal stencil bases (block and cell)
+    const bool sameKey = geo.particleKey(x[i - 1]) == geo.particleKey(x[i]);
+    EXPECT_EQ(sameKey, baseOf(x[i - 1]) == baseOf(x[i])) << i;
+  }
+  // a base once left does not come back: each base is one run
+  std::vector<std::array<int, 3>> runs;
+  for (size_t i = 0; i < x.size(); ++i)
+    if (i == 0 || baseOf(x[i]) != baseOf(x[i - 1])) runs.push_back(baseOf(x[i]));
+  std::sort(runs.begin(), runs.end());
+  EXPECT_EQ(std::adjacent_find(runs.begin(), runs.end()), runs.end()) << "a stencil cell's particles are split";
+  EXPECT_GT(runs.size(), 1000u);  // the test saw many cells
+}
+
 TEST(ThreadTeam, BarrierSeparatesRounds) {
   ThreadTeam team;
   std::vector<int> slot(3, -1);

@@ -111,6 +111,21 @@ struct GridGeometry {
     stencilBase(x, base, fx);
     return blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
   }
+  /// The GPU's sort key of a particle (backend/cuda): the block of particleBlock, then the
+  /// stencil base's cell within the block, kBlockBits per axis, so that sorting by it puts a
+  /// block's particles together and, within them, each cell's (the lanes of a warp that add
+  /// to the same nodes). keyBlock gives the block back. Holds 2^26 blocks.
+  static constexpr int kCellKeyBits = 3 * kBlockBits;
+  MPM_HD uint32_t particleKey(Vec3f x) const {
+    int base[3];
+    Vec3f fx;
+    stencilBase(x, base, fx);
+    const uint32_t block = blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
+    const uint32_t cell = (uint32_t)((((base[0] & kBlockMask) << kBlockBits) | (base[1] & kBlockMask)) << kBlockBits |
+                                     (base[2] & kBlockMask));
+    return block << kCellKeyBits | cell;
+  }
+  MPM_HD static uint32_t keyBlock(uint32_t key) { return key >> kCellKeyBits; }
   /// True if a stencil with this lowest node lies on grid nodes.
   MPM_HD bool baseInside(const int base[3]) const {
     for (int a = 0; a < 3; ++a)

@@ -221,32 +221,18 @@ struct CudaExec {
 
 namespace cuda_kernels {
 
-/// A particle's sort key: its stencil base's block, then the cell within the block
-/// (kBlockBits bits per axis), so that a block's particles lie together and within them
-/// each cell's (P2G's WarpGroup). Particles whose stencil leaves the grid: 0.
+/// A particle's sort key (GridGeometry::particleKey); particles whose stencil leaves the
+/// grid: 0.
 struct ParticleKeys {
   ParticleView P;
   GridGeometry geo;
   uint32_t* keys;
-  MPM_HD void operator()(size_t i) const {
-    if (!geo.stencilInside(P.x[i])) {
-      keys[i] = 0u;
-      return;
-    }
-    int base[3];
-    Vec3f fx;
-    geo.stencilBase(P.x[i], base, fx);
-    const uint32_t block = geo.blockIndex(base[0] >> kBlockBits, base[1] >> kBlockBits, base[2] >> kBlockBits);
-    const uint32_t cell = (uint32_t)((((base[0] & kBlockMask) << kBlockBits) | (base[1] & kBlockMask)) << kBlockBits |
-                                     (base[2] & kBlockMask));
-    keys[i] = block << kCellKeyBits | cell;
-  }
-  static constexpr int kCellKeyBits = 3 * kBlockBits;
+  MPM_HD void operator()(size_t i) const { keys[i] = geo.stencilInside(P.x[i]) ? geo.particleKey(P.x[i]) : 0u; }
 };
 
-/// The block of a sort key (ParticleKeys).
+/// The block of a sort key.
 struct KeyBlock {
-  MPM_HD uint32_t operator()(uint32_t key) const { return key >> ParticleKeys::kCellKeyBits; }
+  MPM_HD uint32_t operator()(uint32_t key) const { return GridGeometry::keyBlock(key); }
 };
 
 /// The eight blocks an occupied block's particles reach (those outside the grid: the block
@@ -296,7 +282,7 @@ class CudaExec::Binning {
  public:
   Binning(CudaExec& exec, const GridGeometry& geo) : exec_(exec), geo_(geo) {
     blocks_ = (size_t)geo.blocks[0] * geo.blocks[1] * geo.blocks[2];
-    if (blocks_ > (size_t{1} << (32 - cuda_kernels::ParticleKeys::kCellKeyBits)))
+    if (blocks_ > (size_t{1} << (32 - GridGeometry::kCellKeyBits)))
       throw InvalidArgument("SceneSettings.domain (CUDA backend)", std::to_string(blocks_) + " grid blocks",
                             "at most 2^26 blocks of 4^3 nodes (a particle's sort key is 32 bits)");
     blockSlot_ = exec_.allocate<int32_t>(blocks_);
@@ -395,7 +381,7 @@ class CudaExec::Binning {
     if (order.Current() != order_) std::swap(order_, orderAlt_);
   }
   int keyBits() const {
-    const uint64_t keys = (uint64_t)blocks_ << cuda_kernels::ParticleKeys::kCellKeyBits;
+    const uint64_t keys = (uint64_t)blocks_ << GridGeometry::kCellKeyBits;
     int bits = 1;
     while (bits < 32 && (uint64_t{1} << bits) < keys) ++bits;
     return bits;
