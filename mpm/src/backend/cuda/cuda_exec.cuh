@@ -298,7 +298,11 @@ class CudaExec::Binning {
   void build(const ParticleView& P) {
     const size_t n = P.count;
     count_ = n;
-    if (n == 0) return;
+    if (n == 0) {  // no particles: no active blocks
+      exec_.forEach(activeCount_, cuda_kernels::SetSlot{blockSlot_, active_, 1});
+      activeCount_ = occupiedBound_ = 0;
+      return;
+    }
     grow(keys_, keysCap_, n);
     grow(keysAlt_, keysAltCap_, n);
     grow(order_, orderCap_, n);
