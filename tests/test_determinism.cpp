@@ -87,12 +87,8 @@ TEST_P(Determinism, PinnedTrajectoryHash) {
   EXPECT_EQ(h, pinned) << "the trajectory changed: if the physics was meant to change, pin the new hash";
 }
 
-// The CPU binning is a parallel counting sort: each thread takes a range of particles. Its
-// result must be the one stable sort by block (and the same active blocks in the same
-// slots) whatever the thread count, also for particles in no particular order (after a
-// cut or an import, before the first reorder) and with strays off the grid (binned to
-// block 0, as P2G expects).
-TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
+/// The 40^3-cell grid of the binning tests, [-1, 1]^3.
+GridGeometry binningGrid() {
   GridGeometry geo;
   geo.lower = {-1.f, -1.f, -1.f};
   geo.dx = 0.05f;
@@ -101,6 +97,16 @@ TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
     geo.cells[a] = 40;
     geo.blocks[a] = (geo.cells[a] + kBlockSize) / kBlockSize;
   }
+  return geo;
+}
+
+// The CPU binning is a parallel counting sort: each thread takes a range of particles. Its
+// result must be the one stable sort by block (and the same active blocks in the same
+// slots) whatever the thread count, also for particles in no particular order (after a
+// cut or an import, before the first reorder) and with strays off the grid (binned to
+// block 0, as P2G expects).
+TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
+  const GridGeometry geo = binningGrid();
   std::mt19937 rng(7);
   std::uniform_real_distribution<float> inBox(-0.6f, 0.7f), offGrid(-3.f, 3.f);
   const size_t n = 20011;  // above CpuExec::kMinParallel, not a multiple of any team size
@@ -143,25 +149,12 @@ TEST(Binning, StableSortByBlockWhateverTheThreadCount) {
   EXPECT_GT(active1.size(), 100u);
 }
 
-INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solverParamName());
-
-// The CPU backend's own threads (backend/cpu/thread_team.h). Every member of a run writes
-// its slot, waits at the barrier, then reads all the others': a barrier that let one member
-// through early reads a slot still holding the previous round's value. Runs of 2, 3 and 1
-// members in turn, so workers sit out some runs (they must still report back).
 // The GPU's binning sorts particles by GridGeometry::particleKey so that a block's particles
 // lie together and within them each stencil cell's (its P2G sums a cell's warp lanes before
 // adding them to the block's tile): the key must order by block first, then by the stencil
 // base's cell, and give the block back.
 TEST(Binning, GpuSortKeyOrdersByBlockThenCell) {
-  GridGeometry geo;
-  geo.lower = {-1.f, -1.f, -1.f};
-  geo.dx = 0.05f;
-  geo.invDx = 1.f / geo.dx;
-  for (int a = 0; a < 3; ++a) {
-    geo.cells[a] = 40;
-    geo.blocks[a] = (geo.cells[a] + kBlockSize) / kBlockSize;
-  }
+  const GridGeometry geo = binningGrid();
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> inBox(-0.95f, 0.95f);
   std::vector<Vec3f> x(5000);
@@ -192,6 +185,12 @@ TEST(Binning, GpuSortKeyOrdersByBlockThenCell) {
   EXPECT_GT(runs.size(), 1000u);  // the test saw many cells
 }
 
+INSTANTIATE_TEST_SUITE_P(AllSolvers, Determinism, test::allSolvers(), test::solverParamName());
+
+// The CPU backend's own threads (backend/cpu/thread_team.h). Every member of a run writes
+// its slot, waits at the barrier, then reads all the others': a barrier that let one member
+// through early reads a slot still holding the previous round's value. Runs of 2, 3 and 1
+// members in turn, so workers sit out some runs (they must still report back).
 TEST(ThreadTeam, BarrierSeparatesRounds) {
   ThreadTeam team;
   std::vector<int> slot(3, -1);
