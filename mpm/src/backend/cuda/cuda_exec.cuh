@@ -123,8 +123,6 @@ struct CudaExec {
   /// count a kernel may need, up to 255).
   unsigned int tileThreads(size_t occupied) const { return occupied >= 4 * (size_t)multiprocessors_ ? 128u : 256u; }
 
-  using Add = AtomicAdd;
-
   /// Each scene's work goes to its own stream, so the steps of scenes advanced together
   /// (SceneBatch) overlap on the device. A blocking stream: it still waits for work left on
   /// the legacy default stream, should anything launch there.
