@@ -24,8 +24,10 @@ namespace mpm {
 /// resetTimings(). The stage names match the code and the benchmark table.
 struct StageTimings {
   double sort = 0;        ///< binning particles by grid block, activating grid blocks
-  double p2g = 0;         ///< particle-to-grid transfer
-  double gridUpdate = 0;  ///< grid velocity update, gravity, walls
+  /// particle-to-grid transfer; without mirror planes also what runs in its pass: the grid
+  /// update, and on the CPU PB-MPM's G2P of the cycles before its last
+  double p2g = 0;
+  double gridUpdate = 0;  ///< grid velocity update, gravity, walls: where mirror planes are set (else in p2g)
   double contact = 0;     ///< grid contact with rigid shapes, shape motion
   double g2p = 0;         ///< grid-to-particle transfer, F update, push-out from shapes
   long long substeps = 0; ///< substeps these times cover

@@ -333,22 +333,45 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// `k(p, nodes)` adds to it (fields k does not scatter: zero). With keepCentroids the
   /// material centroids (touch, mx) stay as the last P2G left them (k must not scatter
   /// them: PB-MPM's later cycles).
-  template <class K>
-  void scatter(const K& k, bool keepCentroids = false) {
-    const auto t0 = Clock::now();
-    exec_.particleToGrid(bins_, k, keepCentroids);
+  ///
+  /// Then the grid update: `u(n)` for every node of the active blocks (grid/grid_update.h).
+  /// Where mirror planes must first fold their ghost nodes onto the material, after P2G
+  /// in a pass of its own; otherwise in P2G's pass (Exec::particleToGrid: the CPU updates a
+  /// block's nodes as soon as their sums are complete, while they are in its cache), and
+  /// then timed as P2G.
+  template <class K, class U>
+  void scatterAndUpdate(const K& k, const U& u, bool keepCentroids = false) {
+    auto t0 = Clock::now();
     centroidsKept_ = keepCentroids;
+    if (!walls_.mirror) {
+      exec_.particleToGrid(bins_, k, keepCentroids, u);
+      timings.p2g += seconds(t0);
+      return;
+    }
+    exec_.particleToGrid(bins_, k, keepCentroids);
     timings.p2g += seconds(t0);
-  }
-  /// `k(n)` for every node of the active blocks, after folding the mirror planes' ghost
-  /// nodes onto the material (grid/grid_update.h).
-  template <class K>
-  void updateGrid(const K& k) {
-    const auto t0 = Clock::now();
+    t0 = Clock::now();
     const size_t nodes = (size_t)grid().activeCount * kBlockNodes;
-    if (walls_.mirror) exec_.forEach(nodes, MirrorFold{grid(), walls_, centroidsKept_});
-    exec_.forEach(nodes, k);
+    exec_.forEach(nodes, MirrorFold{grid(), walls_, centroidsKept_});
+    exec_.forEach(nodes, u);
     timings.gridUpdate += seconds(t0);
+  }
+  /// G2P with `g` (gather), then P2G with `k` and the grid update `u` (scatterAndUpdate):
+  /// in one pass where the backend can (the CPU without mirror planes: each run of a
+  /// block's particles gathered and then scattered, with the stencil both use computed
+  /// once; timed as P2G), otherwise one after the other. The positions must not move
+  /// (`g` does not integrate): PB-MPM's cycles before its last.
+  template <class G, class K, class U>
+  void gatherThenScatter(const G& g, const K& k, const U& u, bool keepCentroids) {
+    if (walls_.mirror) {
+      gather(g);
+      scatterAndUpdate(k, u, keepCentroids);
+      return;
+    }
+    const auto t0 = Clock::now();
+    centroidsKept_ = keepCentroids;
+    exec_.gatherThenScatter(bins_, g, k, keepCentroids, u);
+    timings.p2g += seconds(t0);
   }
   /// Places the shapes' parts at their bodies' poses (once per substep, after binning and
   /// before P2G) and decides whether any can reach the active blocks.

@@ -159,6 +159,11 @@ struct MirrorUnfold {
   }
 };
 
+/// The node kernel of a P2G that runs no grid update in its pass (Exec::particleToGrid).
+struct NoNodeUpdate {
+  MPM_HD void operator()(size_t) const {}
+};
+
 /// The grid update of a whole substep as a per-node kernel.
 struct GridUpdate {
   GridView grid;

@@ -115,17 +115,21 @@ struct PbMpm {
     s.recordCuts(p.dt);
     const ParticleView P = s.particles();
     const int n = p.solver.iterations;
-    for (int it = 0; it < n; ++it) {
-      // The material centroids (sum w m x_p, sum w m touch_p) are the same in every cycle,
-      // the positions and touch flags held: scattered in the first only, kept after.
-      // The resistance to cutting acts once a substep, like gravity
-      scatterParticles<P2G>(s, it == 0, P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, s.cuts(),
-                            it == 0 ? s.cuttingPush() : nullptr);
-      const Vec3f gravity = it == 0 ? p.gravity : Vec3f{0.f, 0.f, 0.f};
-      s.updateGrid(GridUpdate{s.grid(), p.dt, gravity, p.walls});
+    // Cycle `it` is P2G, grid update, contact, G2P. The material centroids (sum w m x_p,
+    // sum w m touch_p) are the same in every cycle, the positions and touch flags held:
+    // scattered in the first only, kept after. Gravity and the resistance to cutting act
+    // once a substep, in the first.
+    scatterParticles<P2G>(s, true, GridUpdate{s.grid(), p.dt, p.gravity, p.walls}, P, s.geometry(), p.dt,
+                          p.solver.relaxation, p.solver.rigidity, s.cuts(), s.cuttingPush());
+    for (int it = 0;; ++it) {
       s.exchangeContact(p.dt, it == 0, n);
-      s.gather(withParts(s, G2P{P, s.geometry(), p.dt, it == n - 1}));
+      if (it == n - 1) break;
+      // this cycle's G2P and the next one's P2G, over the same stencils (positions held)
+      s.gatherThenScatter(withParts(s, G2P{P, s.geometry(), p.dt, false}),
+                          P2G<false>{P, s.geometry(), p.dt, p.solver.relaxation, p.solver.rigidity, s.cuts(), nullptr},
+                          GridUpdate{s.grid(), p.dt, Vec3f{0.f, 0.f, 0.f}, p.walls}, true);
     }
+    s.gather(withParts(s, G2P{P, s.geometry(), p.dt, true}));
     s.moveShapes(p.dt);
   }
 };

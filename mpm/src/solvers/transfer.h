@@ -235,16 +235,17 @@ MPM_HD StepCheck strayParticle(uint32_t p, const ParticleView& P) {
   return c;
 }
 
-/// P2G through the kernel template K<kCentroid>: with the material centroid w m x_p only
+/// P2G through the kernel template K<kCentroid>, then the grid update `update` (a node
+/// kernel; ParticleGridSystem::scatterAndUpdate): with the material centroid w m x_p only
 /// when a shape can reach the material this substep (contact needs it; a scene without
 /// shapes, or with shapes far away, does not pay) and `centroids` asks for it (false: the
 /// grid keeps the centroids of this substep's first P2G).
-template <template <bool> class K, class System, class... Args>
-void scatterParticles(System& s, bool centroids, const Args&... args) {
+template <template <bool> class K, class System, class Update, class... Args>
+void scatterParticles(System& s, bool centroids, const Update& update, const Args&... args) {
   if (centroids && s.hasShapes())
-    s.scatter(K<true>{args...});
+    s.scatterAndUpdate(K<true>{args...}, update);
   else
-    s.scatter(K<false>{args...}, !centroids);
+    s.scatterAndUpdate(K<false>{args...}, update, !centroids);
 }
 
 /// A G2P kernel given the parts that can reach the material this substep (fields `parts`,
@@ -267,8 +268,7 @@ void explicitSubstep(System& s, const SubstepParams& p, const G2PKernel& g2p, co
   s.binParticles();
   s.placeShapes();
   s.recordCuts(p.dt);
-  scatterParticles<P2G>(s, true, p2gArgs...);
-  s.updateGrid(GridKernel{s.grid(), p.dt, p.gravity, p.walls});
+  scatterParticles<P2G>(s, true, GridKernel{s.grid(), p.dt, p.gravity, p.walls}, p2gArgs...);
   s.exchangeContact(p.dt, true);
   s.moveShapes(p.dt);
   s.gather(withParts(s, g2p));

@@ -149,6 +149,9 @@ struct P2GTile : BlockTile {
   void finish() { cells->flush<kCentroid, kEdge>(mv, mx); }
 };
 
+/// The G2P kernel of a P2G that gathers nothing first (Binning::particleToGrid).
+struct NoGather {};
+
 struct CpuExec {
   int threads = 1;
 
@@ -367,15 +370,31 @@ struct CpuExec {
     /// neighbours below it, each of another colour, and the second pass adds them in colour
     /// order to the node as cleared, the float additions the coloured flushes made. So the
     /// result depends on the particles alone, not on the thread count.
-    template <class F>
-    void particleToGrid(const F& f, bool keepCentroids, ThreadTeam& pool, int threads) const {
+    ///
+    /// `update`: the grid update (a node kernel taking the node's index in the active
+    /// pool), run on each block's nodes as soon as the second pass has summed them, while
+    /// they are in the summing thread's cache: a pass over the nodes and a wake of the team
+    /// fewer than a separate update (NoNodeUpdate: none).
+    ///
+    /// `gather`: a G2P kernel run on each run of a block's particles just before their P2G,
+    /// from the grid as it was before this call, returning their StepCheck (NoGather:
+    /// none). PB-MPM's cycles hold the positions, so a cycle's G2P and the next cycle's P2G
+    /// share each particle's stencil: computed once, and the particles' v and C scattered
+    /// from the cache they were just gathered into. The first pass only reads the grid
+    /// and the second, after the barrier, writes it: the gather sees the old grid whole.
+    template <class F, class U = NoNodeUpdate, class G = NoGather>
+    StepCheck particleToGrid(const F& f, bool keepCentroids, ThreadTeam& pool, int threads, const U& update = U{},
+                             const G& gather = G{}) const {
       constexpr bool kMx = UsesCentroid<F>::value, kDmv = UsesImpulse<F>::value;
+      constexpr bool kGathers = !std::is_same_v<G, NoGather>;
       constexpr int kFields = 1 + kMx + kDmv, kNodes = BlockTile::kNodes;
       const GridView grid = gridView();
       const size_t nOcc = occupied_.size();
       if (tiles_.size() < nOcc * kFields * kNodes) tiles_.resize(nOcc * kFields * kNodes);
       std::atomic<long long> nextBlock{0}, nextSlot{0};
-      pool.run((long long)nOcc >= kMinParallelBlocks ? threads : 1, [&](int, int nt) {
+      const int team = (long long)nOcc >= kMinParallelBlocks ? threads : 1;
+      std::vector<StepCheck> checks(kGathers ? (size_t)team : 0);  // per thread; max and min in any order
+      pool.run(team, [&](int t, int nt) {
         P2GTile tile;
         thread_local CellScatter cells;  // grows to the largest block once per thread
         tile.cells = &cells;
@@ -385,20 +404,42 @@ struct CpuExec {
         static_assert(!BatchesProjection<F>::value || BatchesStencil<F>::value, "the projection comes with the stencil");
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStressRun> st;  // BatchesStencil: their stencils
+        // kGathers: the block's grid velocities, and the gathered particles' APIC sums
+        static_assert(!kGathers || (BatchesProjection<F>::value && BatchesSums<G>::value &&
+                                    std::is_same_v<Stencil, typename BatchesStencil<G>::Stencil>),
+                      "a gather before P2G shares the projection's batched stencils");
+        struct Gathered {
+          BlockTile tile;
+          ApicSums sums[kStencilRun]{};  // zeros: apicUpdateBatch reads whole vectors
+          StepCheck check{0.f, 0xffffffffu};
+        };
+        std::unique_ptr<Gathered> g = kGathers ? std::make_unique<Gathered>() : nullptr;
         for (long long b; (b = nextBlock.fetch_add(1)) < (long long)nOcc;) {
           const uint32_t j = byWork_[b];
           tile.setBlock(geo_, occupied_[j]);
           tile.clear<kMx, kDmv>();
           cells.reserve(start_[j + 1] - start_[j]);
+          if constexpr (kGathers) {
+            g->tile.setBlock(geo_, occupied_[j]);
+            g->tile.near = nearParts(occupied_[j]);
+            g->tile.template load<UsesOldVelocity<G>::value>(grid);
+          }
           if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
             for (uint32_t r = start_[j]; r < start_[j + 1];) {
               const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
+              if constexpr (kGathers) {
+                st.compute(f.geo, f.P.x, &order_[r], n);
+                apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, g->tile.mv, g->tile.origin, g->sums);
+                const StepCheck c = apicUpdateBatch(gather, &order_[r], n, st, g->sums, g->tile);
+                g->check.maxSpeed2 = std::max(g->check.maxSpeed2, c.maxSpeed2);
+                g->check.firstBadParticle = std::min(g->check.firstBadParticle, c.firstBadParticle);
+              }
               if constexpr (BatchesStress<F>::value)
                 kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
               else
                 pbProjectionBatch(f.P.F, f.P.C, &order_[r], n, f.dt, f.relaxation, f.rigidity, tau);
               if constexpr (BatchesStencil<F>::value) {
-                st.compute(f.geo, f.P.x, &order_[r], n);
+                if constexpr (!kGathers) st.compute(f.geo, f.P.x, &order_[r], n);
                 for (int q = 0; q < n; ++q) {
                   if constexpr (BatchesStress<F>::value)
                     f.scatterStressed(order_[r + q], st.template at<Stencil>(q), tau[q], tile);
@@ -419,13 +460,18 @@ struct CpuExec {
           if constexpr (kMx) std::copy(tile.mx, tile.mx + kNodes, kept + kNodes);
           if constexpr (kDmv) std::copy(tile.dmv, tile.dmv + kNodes, kept + (1 + kMx) * kNodes);
         }
+        if constexpr (kGathers) checks[(size_t)t] = g->check;
         pool.barrier(nt);
-        for (long long a; (a = nextSlot.fetch_add(1)) < (long long)active_.size();)
+        for (long long a; (a = nextSlot.fetch_add(1)) < (long long)active_.size();) {
           sumTiles<kMx, kDmv>(grid, (uint32_t)a, keepCentroids);
+          if constexpr (!std::is_same_v<U, NoNodeUpdate>)
+            for (size_t n = (size_t)a * kBlockNodes, end = n + kBlockNodes; n < end; ++n) update(n);
+        }
       });
       // the same particles scattered again with their centroids kept (PB-MPM's later
       // cycles) leave each node's mass, centroid and touch as they were: the contacts hold
       if (!keepCentroids) contactsFound_ = false;
+      return combined(checks);
     }
 
     /// Active block `slot`'s nodes: cleared (clearNode), then the kept tiles that reach
@@ -507,6 +553,10 @@ struct CpuExec {
         }
         checks[(size_t)t] = {maxSpeed2, firstBad};
       });
+      return combined(checks);
+    }
+    /// The StepCheck of all the threads' (none: nothing to report).
+    static StepCheck combined(const std::vector<StepCheck>& checks) {
       StepCheck c{0.f, 0xffffffffu};
       for (const StepCheck& k : checks) {
         c.maxSpeed2 = std::max(c.maxSpeed2, k.maxSpeed2);
@@ -840,9 +890,11 @@ struct CpuExec {
   };
 
   void bin(const ParticleView& P, Binning& b) { b.build(P, *team_, threads); }
-  template <class F>
-  void particleToGrid(const Binning& b, const F& f, bool keepCentroids) {
-    b.particleToGrid(f, keepCentroids, *team_, threads);
+  /// P2G, then the node kernel `update` on every active node (NoNodeUpdate: none), each
+  /// block's nodes updated as soon as they are summed (Binning::particleToGrid).
+  template <class F, class U = NoNodeUpdate>
+  void particleToGrid(const Binning& b, const F& f, bool keepCentroids, const U& update = U{}) {
+    b.particleToGrid(f, keepCentroids, *team_, threads, update);
   }
   bool partsReach(const Binning& b, const PartView* parts, int nParts) const { return b.partsReach(parts, nParts); }
   void findNearParts(Binning& b, const PartView* parts, int nParts) { b.findNearParts(parts, nParts); }
@@ -851,8 +903,17 @@ struct CpuExec {
     b.contactPass(parts, nParts, bodies, nBodies, out, pass, *team_, threads);
   }
   template <class F>
-  void gridToParticle(const Binning& b, const F& f) {
-    const StepCheck c = b.gridToParticle(f, *team_, threads);
+  void gridToParticle(const Binning& b, const F& f) { keepCheck(b.gridToParticle(f, *team_, threads)); }
+  /// G2P with `g`, then P2G with `f` and the node kernel `update`: the particles the same
+  /// as gridToParticle and particleToGrid one after the other give them, in one pass
+  /// (Binning::particleToGrid's gather). `f` and `g` share their batched stencil.
+  template <class G, class F, class U>
+  void gatherThenScatter(const Binning& b, const G& g, const F& f, bool keepCentroids, const U& update) {
+    keepCheck(b.particleToGrid(f, keepCentroids, *team_, threads, update, g));
+  }
+
+ private:
+  void keepCheck(const StepCheck& c) {
     // the speed that matters for the next substep count is the latest one
     check_.maxSpeed2 = c.maxSpeed2;
     check_.firstBadParticle = std::min(check_.firstBadParticle, c.firstBadParticle);

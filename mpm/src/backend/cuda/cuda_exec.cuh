@@ -14,6 +14,7 @@
 #include <thrust/sequence.h>
 #include <thrust/sort.h>
 #include <thrust/unique.h>
+#include <type_traits>
 
 #include <map>
 #include <string>
@@ -206,10 +207,18 @@ struct CudaExec {
   void findNearParts(Binning& /*b*/, const PartView* /*parts*/, int /*nParts*/) {}
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass);
-  template <class F>
-  void particleToGrid(const Binning& b, const F& f, bool keepCentroids);
+  /// P2G, then the node kernel `update` on every active node (NoNodeUpdate: none) in a
+  /// launch of its own.
+  template <class F, class U = NoNodeUpdate>
+  void particleToGrid(const Binning& b, const F& f, bool keepCentroids, const U& update = U{});
   template <class F>
   void gridToParticle(const Binning& b, const F& f);
+  /// G2P with `g`, then P2G with `f` and the node kernel `update`, one after the other.
+  template <class G, class F, class U>
+  void gatherThenScatter(const Binning& b, const G& g, const F& f, bool keepCentroids, const U& update) {
+    gridToParticle(b, g);
+    particleToGrid(b, f, keepCentroids, update);
+  }
 
  private:
   cudaStream_t stream_ = nullptr;
@@ -423,15 +432,18 @@ inline void CudaExec::contactPass(Binning& b, const PartView* parts, int nParts,
   cudaCheck(cudaGetLastError(), "kernel launch");
 }
 
-template <class F>
-void CudaExec::particleToGrid(const Binning& b, const F& f, bool keepCentroids) {
+template <class F, class U>
+void CudaExec::particleToGrid(const Binning& b, const F& f, bool keepCentroids, const U& update) {
   const GridView grid = b.gridView();
-  forEach((size_t)grid.activeCount * kBlockNodes, ClearNodes{grid.nodes, keepCentroids});
-  if (b.count() == 0) return;
-  particleToTileKernel<UsesCentroid<F>::value, UsesImpulse<F>::value>
-      <<<(unsigned int)b.occupiedBound(), tileThreads(b.occupiedBound()), 0, stream_>>>(
-          b.order(), b.runCount(), b.runStarts(), b.runBlocks(), f, grid);
-  cudaCheck(cudaGetLastError(), "kernel launch");
+  const size_t nodes = (size_t)grid.activeCount * kBlockNodes;
+  forEach(nodes, ClearNodes{grid.nodes, keepCentroids});
+  if (b.count() > 0) {
+    particleToTileKernel<UsesCentroid<F>::value, UsesImpulse<F>::value>
+        <<<(unsigned int)b.occupiedBound(), tileThreads(b.occupiedBound()), 0, stream_>>>(
+            b.order(), b.runCount(), b.runStarts(), b.runBlocks(), f, grid);
+    cudaCheck(cudaGetLastError(), "kernel launch");
+  }
+  if constexpr (!std::is_same_v<U, NoNodeUpdate>) forEach(nodes, update);
 }
 
 template <class F>
