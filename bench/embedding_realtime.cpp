@@ -174,8 +174,9 @@ std::string markdown(const RunInfo& info, const Options& opt, const std::vector<
        "simulated s / wall s (CPU: / process CPU s, all threads); ms per "
        "substep = wall / substeps (PB-MPM: a substep is its iterations); in stages = the share of the wall time in "
        "the solver's named stages (the rest: Bullet, the coupling, the scene's per-advance work), and those "
-       "stages per substep in us (Scene::timings: sort / P2G / grid update / contact / G2P). The box "
-       "rests on the slab at 0.132 m.\n\n";
+       "stages per substep in us (Scene::timings: sort / P2G / grid update / contact / G2P; the grid update "
+       "runs in P2G's pass, and so does PB-MPM's G2P of every cycle but its last, in the next cycle's P2G: "
+       "both are counted in P2G). The box rests on the slab at 0.132 m.\n\n";
   s << "| solver | variant | threads | wall [s] | CPU [s] | real time (wall) | real time (CPU) | substeps | substeps / "
        "simulated s | ms per substep | in stages | stages [us / substep] | substep bound [ms] | box height [m] |\n";
   s << "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
