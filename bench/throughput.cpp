@@ -591,8 +591,10 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        "- M/s: million particle-substeps per second at the median wall time; for PB-MPM,"
        " particle-iterations (each iteration is a full P2G, grid update and G2P).\n"
        "- sort / P2G / grid / G2P %: the library's `StageTimings` (sort: binning particles into"
-       " grid blocks, activating blocks, the per-frame reorder; P2G includes setting the nodes; grid: grid velocity"
-       " update, gravity, walls; G2P includes the F update), summed over the repeats, as shares of"
+       " grid blocks, activating blocks, the per-frame reorder; P2G includes setting the nodes and, run in its"
+       " pass since session 27, the grid update (velocity, gravity, walls: the grid column is 0 without mirror"
+       " planes) and PB-MPM's G2P of every cycle but its last; G2P includes the F update), summed over the"
+       " repeats, as shares of"
        " the timed wall time; other: the rest (the step's worker-thread start, end-of-step check).\n"
        "- particle GB/s: M/s times "
     << kBytesPerParticleSubstep
