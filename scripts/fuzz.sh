@@ -41,6 +41,8 @@ cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_C_COMPILER=cl
 cmake --build build-fuzz -j "$(nproc)" --target "${targets[@]}" >> build-fuzz/build.log 2>&1 || { tail -50 build-fuzz/build.log; exit 1; }
 echo "fuzz: built in $(( $(date +%s) - start )) s"
 
+# third-party leaks only (each entry says why it is not ours)
+export LSAN_OPTIONS="suppressions=$root/scripts/sanitizers/lsan.supp:print_suppressions=0"
 status=0
 for t in "${targets[@]}"; do
   corpus="build-fuzz/corpus-$t"
