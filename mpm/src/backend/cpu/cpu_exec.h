@@ -391,36 +391,23 @@ struct CpuExec {
         static_assert(!BatchesProjection<F>::value || BatchesStencil<F>::value, "the projection comes with the stencil");
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStressRun> st;  // BatchesStencil: their stencils
-        // kGathers: the block's grid velocities, and the gathered particles' APIC sums
         static_assert(!kGathers || (BatchesProjection<F>::value && BatchesSums<G>::value &&
                                     std::is_same_v<Stencil, typename BatchesStencil<G>::Stencil>),
                       "a gather before P2G shares the projection's batched stencils");
-        struct Gathered {
-          BlockTile tile;
-          ApicSums sums[kStencilRun]{};  // zeros: apicUpdateBatch reads whole vectors
-          StepCheck check{0.f, 0xffffffffu};
-        };
-        std::unique_ptr<Gathered> g = kGathers ? std::make_unique<Gathered>() : nullptr;
+        [[maybe_unused]] std::conditional_t<kGathers, Gatherer, NoGather> g;
         uint32_t first, last;
         ownBlocks(t, nt, first, last);
         for (uint32_t j = first; j < last; ++j) {
           tile.setBlock(geo_, occupied_[j]);
           tile.clear<kMx, kDmv>();
           cells.reserve(start_[j + 1] - start_[j]);
-          if constexpr (kGathers) {
-            g->tile.setBlock(geo_, occupied_[j]);
-            g->tile.near = nearParts(occupied_[j]);
-            g->tile.template load<UsesOldVelocity<G>::value>(grid);
-          }
+          if constexpr (kGathers) g.template load<UsesOldVelocity<G>::value>(*this, grid, occupied_[j]);
           if constexpr (BatchesStress<F>::value || BatchesProjection<F>::value) {
             for (uint32_t r = start_[j]; r < start_[j + 1];) {
               const int n = (int)std::min<uint32_t>(kStressRun, start_[j + 1] - r);
               if constexpr (kGathers) {
                 st.compute(f.geo, f.P.x, &order_[r], n);
-                apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, g->tile.mv, g->tile.origin, g->sums);
-                const StepCheck c = apicUpdateBatch(gather, &order_[r], n, st, g->sums, g->tile);
-                g->check.maxSpeed2 = std::max(g->check.maxSpeed2, c.maxSpeed2);
-                g->check.firstBadParticle = std::min(g->check.firstBadParticle, c.firstBadParticle);
+                g.gatherRun(gather, &order_[r], n, st);
               }
               if constexpr (BatchesStress<F>::value)
                 kirchhoffStressBatch(f.materials, f.P.object, f.P.F, &order_[r], n, tau);
@@ -448,13 +435,13 @@ struct CpuExec {
           if constexpr (kMx) std::copy(tile.mx, tile.mx + kNodes, kept + kNodes);
           if constexpr (kDmv) std::copy(tile.dmv, tile.dmv + kNodes, kept + (1 + kMx) * kNodes);
         }
-        if constexpr (kGathers) checks[(size_t)t] = g->check;
+        if constexpr (kGathers) checks[(size_t)t] = g.check;
         pool.barrier(nt);
         const size_t nActive = active_.size();
-        for (size_t a = nActive * t / nt, end = nActive * (t + 1) / nt; a < end; ++a) {
+        for (size_t a = nActive * t / nt, aEnd = nActive * (t + 1) / nt; a < aEnd; ++a) {
           sumTiles<kMx, kDmv>(grid, (uint32_t)a, keepCentroids);
           if constexpr (!std::is_same_v<U, NoNodeUpdate>)
-            for (size_t n = (size_t)a * kBlockNodes, end = n + kBlockNodes; n < end; ++n) update(n);
+            for (size_t n = a * kBlockNodes, nEnd = n + kBlockNodes; n < nEnd; ++n) update(n);
         }
       });
       // the same particles scattered again with their centroids kept (PB-MPM's later
@@ -509,40 +496,30 @@ struct CpuExec {
       const int nt = (long long)occupied_.size() >= kMinParallelBlocks ? threads : 1;
       std::vector<StepCheck> checks((size_t)nt);  // per thread; max and min in any order
       pool.run(nt, [&](int t, int) {
-        float maxSpeed2 = 0.f;
-        uint32_t firstBad = 0xffffffffu;
-        BlockTile tile;
+        Gatherer g;
         using Stencil = typename BatchesStencil<F>::Stencil;
         StencilRun<kStencilRun> st;  // BatchesStencil: the next particles'
-        ApicSums sums[BatchesSums<F>::value ? kStencilRun : 1]{};  // BatchesSums: theirs (zeros: apicUpdateBatch reads whole vectors)
         uint32_t first, last;
         ownBlocks(t, nt, first, last);
         for (uint32_t j = first; j < last; ++j) {
-          tile.setBlock(geo_, occupied_[j]);
-          tile.near = nearParts(occupied_[j]);
-          tile.load<UsesOldVelocity<F>::value>(grid);
-          const auto take = [&](const StepCheck& c) {
-            maxSpeed2 = std::max(maxSpeed2, c.maxSpeed2);
-            firstBad = std::min(firstBad, c.firstBadParticle);
-          };
+          g.load<UsesOldVelocity<F>::value>(*this, grid, occupied_[j]);
           if constexpr (BatchesStencil<F>::value) {
             for (uint32_t r = start_[j]; r < start_[j + 1];) {
               const int n = (int)std::min<uint32_t>(kStencilRun, start_[j + 1] - r);
               st.compute(f.geo, f.P.x, &order_[r], n);
               if constexpr (BatchesSums<F>::value) {
-                apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, tile.mv, tile.origin, sums);
-                take(apicUpdateBatch(f, &order_[r], n, st, sums, tile));
+                g.gatherRun(f, &order_[r], n, st);
               } else {
                 for (int q = 0; q < n; ++q)
-                  take(f.gatherSummed(order_[r + q], st.template at<Stencil>(q), nullptr, tile));
+                  fold(g.check, f.gatherSummed(order_[r + q], st.template at<Stencil>(q), nullptr, g.tile));
               }
               r += n;
             }
           } else {
-            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) take(f(order_[r], tile));
+            for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) fold(g.check, f(order_[r], g.tile));
           }
         }
-        checks[(size_t)t] = {maxSpeed2, firstBad};
+        checks[(size_t)t] = g.check;
       });
       return combined(checks);
     }
@@ -571,15 +548,38 @@ struct CpuExec {
       first = from(t);
       last = from(t + 1);
     }
+    /// Adds `c` to `into`: the fastest particle and the first bad one (any order).
+    static void fold(StepCheck& into, const StepCheck& c) {
+      into.maxSpeed2 = std::max(into.maxSpeed2, c.maxSpeed2);
+      into.firstBadParticle = std::min(into.firstBadParticle, c.firstBadParticle);
+    }
     /// The StepCheck of all the threads' (none: nothing to report).
     static StepCheck combined(const std::vector<StepCheck>& checks) {
       StepCheck c{0.f, 0xffffffffu};
-      for (const StepCheck& k : checks) {
-        c.maxSpeed2 = std::max(c.maxSpeed2, k.maxSpeed2);
-        c.firstBadParticle = std::min(c.firstBadParticle, k.firstBadParticle);
-      }
+      for (const StepCheck& k : checks) fold(c, k);
       return c;
     }
+    /// A thread's G2P over its blocks (gridToParticle, and PB-MPM's gather before P2G in
+    /// particleToGrid): the block's grid velocities as a tile, a run's APIC sums, and the
+    /// check of the particles gathered so far.
+    struct Gatherer {
+      BlockTile tile;
+      ApicSums sums[kStencilRun]{};  // zeros: apicUpdateBatch reads whole vectors
+      StepCheck check{0.f, 0xffffffffu};
+      template <bool kOldVelocity>
+      void load(const Binning& b, const GridView& grid, uint32_t block) {
+        tile.setBlock(b.geo_, block);
+        tile.near = b.nearParts(block);
+        tile.load<kOldVelocity>(grid);
+      }
+      /// G2P of particles ids[0, n) (BatchesSums), their stencils in st.
+      template <class F, int kRun>
+      void gatherRun(const F& f, const uint32_t* ids, int n, const StencilRun<kRun>& st) {
+        static_assert(kRun <= kStencilRun, "the sums hold a run");
+        apicSumsBatch<BlockTile::kEdge>(st, n, f.geo, tile.mv, tile.origin, sums);
+        fold(check, apicUpdateBatch(f, ids, n, st, sums, tile));
+      }
+    };
 
     /// The parts near each active block, for the contact passes and G2P of this substep
     /// (after binning and placing the parts): those whose bounds meet the block's nodes
