@@ -128,13 +128,14 @@ double exactDistance(const ShapeDesc& d, Vec3f x) { return exactDistance(d, Pose
 
 /// Part 0 of `d` as the kernels see it, placed at the shape's pose, anchored for a domain
 /// centred at `near`.
-PartView placedPart(const ShapeDesc& d, Vec3f near) {
+PartView placedPart(const ShapeDesc& d, Vec3f near, float margin = 0.f, float touchReach = INFINITY,
+                    float minHalfThickness = 0.f) {
   const ShapeState state{d.pose, d.linearVelocity, d.angularVelocity};
   std::vector<PartView> parts;
-  appendParts(d, state, 0, 0.f, near, [](const std::shared_ptr<const SignedDistanceGrid>&) { return (const float*)nullptr; },
+  appendParts(d, state, 0, minHalfThickness, near, [](const std::shared_ptr<const SignedDistanceGrid>&) { return (const float*)nullptr; },
               parts);
   const BodyView b = makeBody(d, state, 0.f);
-  placePart(parts[0], b, 0.f);
+  placePart(parts[0], b, margin, touchReach);
   return parts[0];
 }
 
@@ -183,7 +184,7 @@ TEST(ShapePrecision, MovingLargeBoxKeepsItsDistanceNearTheDomain) {
   const int steps = 200;
   const float dt = 1e-3f;
   for (int s = 0; s < steps; ++s) moveBody(b, dt);
-  placePart(parts[0], b, 0.f);
+  placePart(parts[0], b, 0.f, INFINITY);
   const Pose64 pose = Pose64(d).moved(d.linearVelocity, d.angularVelocity, (double)steps * dt);
   double worst = 0;
   for (int i = -10; i <= 10; ++i)
@@ -305,6 +306,86 @@ TEST(ShapeContact, EarlyOutBoundHoldsForEveryLipschitzPart) {
     EXPECT_LE(worst, 0.f) << "geometry " << (int)d.parts[0].type;
   }
   EXPECT_EQ(checked, 5 * 20000);
+}
+
+// G2P tries a particle against a part only inside the part's push-out box (PartView::
+// mayPush): an analytic part's own box grown by the particles' largest touch distance and a
+// slack for rounding, not the grid's bounds (a cell and the band more). Outside it no
+// particle of any volume up to the largest may be pushed or touch the part: checked for
+// each analytic part, turned, near the origin and 40 m from it (coordinates with 4e-6 m
+// float spacing), at random points and at points a float outside each face of the box. The
+// box must stay within the grid's bounds (the blocks' part lists are made from those) and
+// be smaller than them (what it is for).
+TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
+  const float s = std::sin(0.5f * 0.6f), c = std::cos(0.5f * 0.6f);
+  const Quat turn{c, 0.48f * s, 0.6f * s, 0.64f * s};
+  const float dx = 0.02f, largest = 1.25e-7f;  // particles of up to half a cell's cube
+  const float reach = touchDistance(largest);
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<float> unit(0.f, 1.f), share(0.f, 1.f);
+  int outside = 0, onFaces = 0, touchingInside = 0;
+  for (const float far : {0.f, 40.f, 400.f})
+    for (GeometryType t : {GeometryType::Plane, GeometryType::Box, GeometryType::Sphere, GeometryType::Capsule,
+                           GeometryType::Cylinder})
+      for (const bool turned : {false, true}) {
+        ShapeDesc d;
+        d.parts = {Geometry{}};
+        d.parts[0].type = t;
+        d.parts[0].halfExtents = {0.05f, 0.004f, 0.08f};  // thinner than the band: grown for the grid
+        d.parts[0].radius = 0.006f;
+        d.parts[0].halfHeight = 0.03f;
+        d.pose.position = {far + 0.01f, 0.12f, -0.02f};
+        if (turned) d.pose.rotation = turn;
+        const Vec3f near{far, 0.1f, 0.f};
+        const PartView part = placedPart(d, near, dx, reach, 0.75f * dx);
+        const std::string what = "geometry " + std::to_string((int)t) + (turned ? " turned" : "") + " at " +
+                                 std::to_string(far) + " m";
+        for (int a = 0; a < 3; ++a) {
+          EXPECT_GE(part.pushLower[a], part.boundsLower[a]) << what;
+          EXPECT_LE(part.pushUpper[a], part.boundsUpper[a]) << what;
+        }
+        if (t == GeometryType::Sphere)  // the grid's cell either side is not the particles'
+          EXPECT_LT(part.pushUpper.x - part.pushLower.x, part.boundsUpper.x - part.boundsLower.x - 2.f * dx) << what;
+        // points in the part's own box grown by two reaches (a plane: about its anchor)
+        Vec3f lo, hi;
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::fmax(part.pushLower[a], part.position[a] - 0.2f) - 2.f * reach;
+          hi[a] = std::fmin(part.pushUpper[a], part.position[a] + 0.2f) + 2.f * reach;
+        }
+        const auto check = [&](Vec3f x, bool face) {
+          if (part.mayPush(x)) {
+            bool touch = false;
+            Vec3f y = x;
+            if (pushOutOfPart(y, part, largest, touch) || touch) ++touchingInside;
+            return;
+          }
+          ++outside;
+          onFaces += face;
+          for (const float v : {largest, largest * share(rng), 1e-12f}) {
+            bool touch = false;
+            Vec3f y = x;
+            const bool moved = pushOutOfPart(y, part, v, touch);
+            EXPECT_FALSE(moved || touch) << what << ": x " << x.x << " " << x.y << " " << x.z << " volume " << v;
+          }
+        };
+        for (int k = 0; k < 20000; ++k) {
+          Vec3f x;
+          for (int a = 0; a < 3; ++a) x[a] = lo[a] + (hi[a] - lo[a]) * unit(rng);
+          check(x, false);
+          // the same point moved a float beyond one face of the push box (a plane's faces
+          // along it lie at 1e18 m: no particle's)
+          const int a = k % 3;
+          const float face = (k / 3) % 2 ? std::nextafter(part.pushUpper[a], INFINITY)
+                                         : std::nextafter(part.pushLower[a], -INFINITY);
+          if (std::fabs(face) > 1e6f) continue;
+          x[a] = face;
+          check(x, true);
+        }
+      }
+  std::printf("%d points outside the push boxes (%d a float beyond a face), %d inside pushed or touching\n", outside,
+              onFaces, touchingInside);
+  EXPECT_GT(onFaces, 80000);
+  EXPECT_GT(touchingInside, 10000);
 }
 
 // PartView::distance takes a sphere's and a plane's distance in the world frame (no turn

@@ -120,8 +120,8 @@ struct G2PCase {
     const ShapeState state{box.pose, box.linearVelocity, box.angularVelocity};
     appendParts(box, state, 0, 0.f, box.pose.position,
                 [](const std::shared_ptr<const SignedDistanceGrid>&) { return (const float*)nullptr; }, parts);
-    placePart(parts[0], makeBody(box, state, 0.f), geo.dx);
-    nearList.push_back(NearPart{0, parts[0].boundsLower, parts[0].boundsUpper});
+    placePart(parts[0], makeBody(box, state, 0.f), geo.dx, touchDistance(1.5e-4f));  // the largest volume0 below
+    nearList.push_back(NearPart{0, parts[0].pushLower, parts[0].pushUpper});
     tile.near.parts = nearList.data();
     tile.near.count = 1;
     for (int a = 0; a < 3; ++a) {  // the block's box as Binning::nearBox draws it, ...

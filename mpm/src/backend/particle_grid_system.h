@@ -145,6 +145,9 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     MPM_PARTICLE_FIELDS(MPM_APPEND)
 #undef MPM_APPEND
     count_ = n;
+    // the particles' largest touch distance, for the parts' push-out boxes (placeShapes);
+    // a volume that is no finite size leaves it unknown (infinite: the parts' bounds)
+    for (const float v : add.volume0) touchReach_ = std::max(touchReach_, v >= 0.f && v < INFINITY ? touchDistance(v) : INFINITY);
   }
 
   /// A copy of every field on the device: one pass over the particle memory per advance
@@ -380,10 +383,11 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     if (shapes_.partCount() == 0) return;
     const auto t0 = Clock::now();
     // the contact band of a node reaches one cell beyond the part's own bounds
-    shapes_.place(geo_.dx);
+    shapes_.place(geo_.dx, touchReach_);
     shapesInReach_ = exec_.partsReach(bins_, shapes_.parts(), shapes_.partCount());
-    // which parts are near which blocks, for the contact passes and G2P (CPU)
-    if (shapesInReach_) exec_.findNearParts(bins_, shapes_.parts(), shapes_.partCount());
+    // which parts are near which blocks, for the contact passes and G2P, and where P2G
+    // must sum the material centroids (CPU; mirror planes fold them across blocks)
+    if (shapesInReach_) exec_.findNearParts(bins_, shapes_.parts(), shapes_.partCount(), !walls_.mirror);
     timings.contact += seconds(t0);
   }
   /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
@@ -431,6 +435,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     MPM_PARTICLE_FIELDS(MPM_CLEAR)
 #undef MPM_CLEAR
     count_ = 0;
+    touchReach_ = 0.f;
   }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
@@ -461,6 +466,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   size_t count_ = 0;
   WallParams walls_;  ///< of the current substep
   bool shapesInReach_ = false;  ///< of the current substep (placeShapes)
+  float touchReach_ = 0.f;      ///< the particles' largest touchDistance (append)
   bool centroidsKept_ = false;  ///< the last scatter kept the centroids (MirrorFold)
   bool blades_ = false;          ///< a slicer's blade is among the parts
   bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set

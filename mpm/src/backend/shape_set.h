@@ -3,6 +3,7 @@
 // distance grids) and the momentum each body received, in Exec memory. Shared by every
 // solver system: the particle-grid solvers and MTLED differ in where the contact is
 // applied (grid nodes or meshless nodes), not in how shapes are stored, placed and moved.
+#include <cmath>
 #include <map>
 #include <memory>
 #include <vector>
@@ -18,8 +19,8 @@ namespace kernels {
 struct PlaceParts {
   PartView* parts;
   const BodyView* bodies;
-  float margin;
-  MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin); }
+  float margin, touchReach;
+  MPM_HD void operator()(size_t i) const { placePart(parts[i], bodies[parts[i].body], margin, touchReach); }
 };
 
 struct StartBodyExchange {
@@ -94,10 +95,11 @@ class ShapeSet {
     }
   }
 
-  /// Places the parts at their bodies' poses, bounds grown by `margin` and the band.
-  void place(float margin) {
+  /// Places the parts at their bodies' poses, bounds grown by `margin` and the band, the
+  /// particles' push-out boxes by `touchReach` (placePart; infinite: the bounds).
+  void place(float margin, float touchReach = INFINITY) {
     if (parts_.size() == 0) return;
-    exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), margin});
+    exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), margin, touchReach});
   }
   /// The momentum exchange of a substep with the material (DESIGN 5): the dynamic bodies'
   /// gravity (`gravityDt`, 0 for none), their velocities predicted from measuring passes,

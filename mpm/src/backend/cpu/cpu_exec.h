@@ -340,7 +340,7 @@ struct CpuExec {
       for (uint32_t b : occupied_) blockCount_[b] = 0;
 
       activate();
-      nearListed_ = contactsFound_ = false;  // the lists belong to the old active blocks
+      nearListed_ = contactsFound_ = centroidsSelected_ = false;  // the lists belong to the old active blocks
       for (size_t j = 0; j < occupied_.size(); ++j) occupiedRank_[occupied_[j]] = (int32_t)j;
     }
 
@@ -429,17 +429,25 @@ struct CpuExec {
           } else {
             for (uint32_t r = start_[j]; r < start_[j + 1]; ++r) f(order_[r], tile);
           }
-          tile.finish<kMx>();
+          // the material centroids only where the contact pass will read them
+          const bool centroids = kMx && (!centroidsSelected_ || centroidRank_[j]);
+          if (centroids)
+            tile.finish<kMx>();
+          else
+            tile.finish<false>();
           Float4* kept = &tiles_[(size_t)j * kFields * kNodes];
           std::copy(tile.mv, tile.mv + kNodes, kept);
-          if constexpr (kMx) std::copy(tile.mx, tile.mx + kNodes, kept + kNodes);
+          if (centroids) std::copy(tile.mx, tile.mx + kNodes, kept + kNodes);
           if constexpr (kDmv) std::copy(tile.dmv, tile.dmv + kNodes, kept + (1 + kMx) * kNodes);
         }
         if constexpr (kGathers) checks[(size_t)t] = g.check;
         pool.barrier(nt);
         const size_t nActive = active_.size();
         for (size_t a = nActive * t / nt, aEnd = nActive * (t + 1) / nt; a < aEnd; ++a) {
-          sumTiles<kMx, kDmv>(grid, (uint32_t)a, keepCentroids);
+          if (kMx && (!centroidsSelected_ || centroidSlot_[a]))
+            sumTiles<kMx, kDmv, kMx>(grid, (uint32_t)a, keepCentroids);
+          else
+            sumTiles<kMx, kDmv, false>(grid, (uint32_t)a, keepCentroids);
           if constexpr (!std::is_same_v<U, NoNodeUpdate>)
             for (size_t n = a * kBlockNodes, nEnd = n + kBlockNodes; n < nEnd; ++n) update(n);
         }
@@ -452,8 +460,10 @@ struct CpuExec {
 
     /// Active block `slot`'s nodes: cleared (clearNode), then the kept tiles that reach
     /// them added in colour order (particleToGrid). The tile of the block d below (d in
-    /// {0, 1}^3, in blocks) reaches its nodes 0..3 - 2 d along each axis.
-    template <bool kMx, bool kDmv>
+    /// {0, 1}^3, in blocks) reaches its nodes 0..3 - 2 d along each axis. The tiles hold
+    /// kMx (centroids) and kDmv fields; kSumMx: the centroids are summed (else left as
+    /// cleared).
+    template <bool kMx, bool kDmv, bool kSumMx>
     void sumTiles(const GridView& grid, uint32_t slot, bool keepCentroids) const {
       constexpr int kFields = 1 + kMx + kDmv, kEdge = BlockTile::kEdge, kNodes = BlockTile::kNodes;
       int c[3];
@@ -479,7 +489,7 @@ struct CpuExec {
               GridNode& g = nodes[(i << (2 * kBlockBits)) | (j << kBlockBits) | l];
               g.mass += tile[t][0];
               g.mv += tile[t].xyz();
-              if constexpr (kMx) {
+              if constexpr (kSumMx) {
                 g.touch += tile[kNodes + t][0];
                 g.mx += tile[kNodes + t].xyz();
               }
@@ -593,13 +603,14 @@ struct CpuExec {
     /// lookup each), or over the active blocks for a part reaching more blocks than are
     /// active (a ground plane). Each list keeps the part order, so what each node and
     /// particle sees, in which order, is what it saw when every part was tried.
-    void findNearParts(const PartView* parts, int nParts) {
+    void findNearParts(const PartView* parts, int nParts, bool selectCentroids) {
       const size_t nActive = active_.size();
       nearPairs_.clear();
       for (int p = 0; p < nParts; ++p) {
         const PartView& part = parts[p];
-        // the blocks whose box may meet the part's bounds, a block of slack either side
-        // for the rounding; the exact test below decides
+        // the blocks whose box may meet the part's bounds, with a slack for the rounding (a
+        // hundredth of a cell, more far from the grid's corner); the exact test decides.
+        // A block of slack either side had made it 4^3 blocks for a small sphere, not 2^3.
         int first[3], last[3];
         long long range = 1;
         bool finite = true;  // bounds of NaN meet every box (mayTouch): tried on all blocks
@@ -607,21 +618,26 @@ struct CpuExec {
           finite = finite && std::isfinite(part.boundsLower[a]) && std::isfinite(part.boundsUpper[a]);
           const float lo = (part.boundsLower[a] - geo_.lower[a]) * geo_.invDx, hi = (part.boundsUpper[a] - geo_.lower[a]) * geo_.invDx;
           // a block b's box spans nodes kBlockSize b - kNearBelow to kBlockSize b + kBlockSize - 1 + kNearAbove
-          const float f = std::floor((lo - (float)(kBlockSize - 1 + kNearAbove)) / (float)kBlockSize) - 1.f;
-          const float l = std::floor((hi + (float)kNearBelow) / (float)kBlockSize) + 1.f;
+          const float slack = 0.01f + 1e-5f * (std::fabs(lo) + std::fabs(hi));
+          const float f = std::floor((lo - (float)(kBlockSize - 1 + kNearAbove) - slack) / (float)kBlockSize);
+          const float l = std::floor((hi + (float)kNearBelow + slack) / (float)kBlockSize);
           first[a] = (int)std::max(0.f, std::min(f, (float)geo_.blocks[a]));
           last[a] = (int)std::max(-1.f, std::min(l, (float)geo_.blocks[a] - 1.f));
           range *= std::max(0, last[a] - first[a] + 1);
         }
         if (!finite || range > (long long)nActive) {
-          for (size_t slot = 0; slot < nActive; ++slot) addNear(part, p, (uint32_t)slot);
+          for (size_t slot = 0; slot < nActive; ++slot) {
+            int bx, by, bz;
+            geo_.blockCoords(active_[slot], bx, by, bz);
+            addNear(part, p, (uint32_t)slot, bx, by, bz);
+          }
           continue;
         }
         for (int bx = first[0]; bx <= last[0]; ++bx)
           for (int by = first[1]; by <= last[1]; ++by)
             for (int bz = first[2]; bz <= last[2]; ++bz) {
               const int32_t slot = blockSlot_[geo_.blockIndex(bx, by, bz)];
-              if (slot >= 0) addNear(part, p, (uint32_t)slot);
+              if (slot >= 0) addNear(part, p, (uint32_t)slot, bx, by, bz);
             }
       }
       // by block, stable: each block's parts stay in part order
@@ -634,9 +650,42 @@ struct CpuExec {
       nearParts_.resize(nearPairs_.size());
       cursor_.assign(nearStart_.begin(), nearStart_.end() - 1);
       for (const NearPair& q : nearPairs_)
-        nearParts_[cursor_[q.slot]++] = NearPart{q.part, parts[q.part].boundsLower, parts[q.part].boundsUpper};
+        nearParts_[cursor_[q.slot]++] = NearPart{q.part, parts[q.part].pushLower, parts[q.part].pushUpper};
       nearListed_ = true;
       contactsFound_ = false;  // the parts were placed anew
+      centroidsSelected_ = selectCentroids;
+      if (selectCentroids) selectCentroidBlocks(parts);
+    }
+
+    /// The blocks whose nodes need their material centroids this substep (centroidSlot_)
+    /// and the occupied blocks whose tiles reach them (centroidRank_): the only nodes whose
+    /// centroid (mx, touch) anything reads are the contact pass's, in the active blocks
+    /// whose nodes' box meets a listed part's bounds (contactPass, the same test). P2G sums
+    /// the centroids there alone.
+    ///
+    /// Why: the centroid is a second sum as large as the momentum's (w m x_p and w m touch_p
+    /// for every stencil node) and was the largest cost of 100 small spheres on the top face
+    /// of a box of 17576 particles (P2G 1.2x the plain scene's), though it is read only in
+    /// the blocks along the spheres.
+    void selectCentroidBlocks(const PartView* parts) {
+      centroidSlot_.assign(active_.size(), 0);
+      for (const NearPair& q : nearPairs_) {
+        if (centroidSlot_[q.slot]) continue;
+        Vec3f lo, hi;
+        nodeBox(active_[q.slot], lo, hi);
+        if (parts[q.part].mayTouch(lo, hi)) centroidSlot_[q.slot] = 1;
+      }
+      centroidRank_.assign(occupied_.size(), 0);
+      for (size_t j = 0; j < occupied_.size(); ++j) {
+        int c[3];
+        geo_.blockCoords(occupied_[j], c[0], c[1], c[2]);
+        for (int d = 0; d < 8 && !centroidRank_[j]; ++d) {  // the tile reaches the blocks d above (d in {0, 1}^3)
+          const int x = c[0] + (d & 1), y = c[1] + ((d >> 1) & 1), z = c[2] + ((d >> 2) & 1);
+          if (x >= geo_.blocks[0] || y >= geo_.blocks[1] || z >= geo_.blocks[2]) continue;
+          const int32_t slot = blockSlot_[geo_.blockIndex(x, y, z)];
+          centroidRank_[j] = slot >= 0 && centroidSlot_[slot];
+        }
+      }
     }
 
     /// Grid contact with rigid parts, block by block: each part near the block
@@ -659,7 +708,7 @@ struct CpuExec {
                      ContactSums* out, int pass, ThreadTeam& pool, int threads) {
       for (int b = 0; b < nBodies; ++b) out[b] = ContactSums{};
       if (nParts == 0) return;
-      if (!nearListed_) findNearParts(parts, nParts);
+      if (!nearListed_) findNearParts(parts, nParts, false);
       const GridView grid = gridView();
       const size_t nActive = active_.size();
       blockSums_.resize(nearParts_.size());
@@ -677,8 +726,8 @@ struct CpuExec {
         int bx, by, bz;
         geo_.blockCoords(active_[slot], bx, by, bz);
         const int o[3] = {bx << kBlockBits, by << kBlockBits, bz << kBlockBits};
-        const Vec3f lo = geo_.lower + geo_.dx * Vec3f{(float)o[0], (float)o[1], (float)o[2]};
-        const Vec3f hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
+        Vec3f lo, hi;
+        nodeBox(active_[slot], lo, hi);
         GridNode* nodes = grid.nodes + slot * kBlockNodes;
         // The block's nodes that take contact at all, with where their material is: asked
         // once for all the parts near the block (under 100 small spheres a block has about
@@ -696,7 +745,7 @@ struct CpuExec {
           if (find) {
             std::vector<NodeContact>& mine = contactsBy_[t];
             at = ContactRun{(uint32_t)mine.size(), (uint8_t)t, 0};
-            if (!nearParts_[k].mayTouch(lo, hi)) continue;
+            if (!parts[p].mayTouch(lo, hi)) continue;
             if (nCandidates < 0) {
               nCandidates = 0;
               for (int n = 0; n < kBlockNodes; ++n) {
@@ -712,6 +761,7 @@ struct CpuExec {
             NodeContact g;
             for (int c = 0; c < nCandidates; ++c) {
               const NodeCandidate& q = candidates[c];
+              if (!parts[p].mayTouch(q.x, q.x)) continue;  // as the CUDA pass: beyond the part's reach
               if (!nodeContactGeometry(q.x, q.xbar, q.touchingCell, parts, nParts, p, bodies, g)) continue;
               g.node = q.node;
               mine.push_back(g);
@@ -856,6 +906,11 @@ struct CpuExec {
     std::vector<uint32_t> listed_;      ///< the active slots whose list is not empty
     std::vector<NearPart> nearParts_;   ///< the lists, each in part order
     bool nearListed_ = false;           ///< the lists are this substep's
+    /// selectCentroidBlocks: per active slot, its nodes need their centroids; per occupied
+    /// rank, its tile carries them. Without it (mirror planes fold ghost nodes' centroids
+    /// into others; before the lists) every block's do.
+    std::vector<uint8_t> centroidSlot_, centroidRank_;
+    bool centroidsSelected_ = false;
     struct NodeCandidate {  ///< contactPass: a node that takes contact (takesContact)
       Vec3f x, xbar;
       float touchingCell;
@@ -881,15 +936,28 @@ struct CpuExec {
     void nearBox(uint32_t block, Vec3f& lo, Vec3f& hi) const {
       int bx, by, bz;
       geo_.blockCoords(block, bx, by, bz);
+      nearBox(bx, by, bz, lo, hi);
+    }
+    /// The same, of the block at block coordinates (bx, by, bz).
+    void nearBox(int bx, int by, int bz, Vec3f& lo, Vec3f& hi) const {
       const Vec3f first = geo_.lower + geo_.dx * Vec3f{(float)(bx << kBlockBits), (float)(by << kBlockBits),
                                                        (float)(bz << kBlockBits)};
       lo = first - ((float)kNearBelow * geo_.dx) * Vec3f{1.f, 1.f, 1.f};
       hi = first + ((float)(kBlockSize - 1 + kNearAbove) * geo_.dx) * Vec3f{1.f, 1.f, 1.f};
     }
-    void addNear(const PartView& part, int p, uint32_t slot) {
+    /// Lists part p for active slot `slot` (its block at bx, by, bz) if its bounds meet
+    /// the slot's box.
+    void addNear(const PartView& part, int p, uint32_t slot, int bx, int by, int bz) {
       Vec3f lo, hi;
-      nearBox(active_[slot], lo, hi);
+      nearBox(bx, by, bz, lo, hi);
       if (part.mayTouch(lo, hi)) nearPairs_.push_back({slot, p});
+    }
+    /// The box of active block `block`'s nodes [m] (the contact pass's bound on them).
+    void nodeBox(uint32_t block, Vec3f& lo, Vec3f& hi) const {
+      int bx, by, bz;
+      geo_.blockCoords(block, bx, by, bz);
+      lo = geo_.lower + geo_.dx * Vec3f{(float)(bx << kBlockBits), (float)(by << kBlockBits), (float)(bz << kBlockBits)};
+      hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
     }
     /// G2P's list for occupied block `block` (active too); none before findNearParts.
     NearParts nearParts(uint32_t block) const {
@@ -912,7 +980,11 @@ struct CpuExec {
     b.particleToGrid(f, keepCentroids, *team_, threads, update);
   }
   bool partsReach(const Binning& b, const PartView* parts, int nParts) const { return b.partsReach(parts, nParts); }
-  void findNearParts(Binning& b, const PartView* parts, int nParts) { b.findNearParts(parts, nParts); }
+  /// `selectCentroids`: P2G may sum the material centroids only where the contact pass
+  /// reads them (not with mirror planes, whose fold moves them between blocks).
+  void findNearParts(Binning& b, const PartView* parts, int nParts, bool selectCentroids) {
+    b.findNearParts(parts, nParts, selectCentroids);
+  }
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass) {
     b.contactPass(parts, nParts, bodies, nBodies, out, pass, *team_, threads);

@@ -108,7 +108,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       bad = ~(s - s == 0.f);
     }
     // the lanes that may touch a part (pushOutOfParts with its list: x outside the list's
-    // box, or inside the bounds of a part on it); the others end untouched and unmoved
+    // box, or inside the push-out box of a part on it); the others end untouched and unmoved
     Mask pushed = Mask{};
     if (integrate && f.nParts) {
       if (!near.parts) {
@@ -119,7 +119,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
         pushed = ~held;
         for (int k = 0; k < near.count; ++k) {
           const NearPart& q = near.parts[k];
-          Mask meets = ~Mask{};  // NearPart::mayTouch(x, x): NaN meets
+          Mask meets = ~Mask{};  // NearPart::mayPush(x): NaN meets
           for (int a = 0; a < 3; ++a) meets &= ~((x[a] < q.lower[a]) | (x[a] > q.upper[a]));
           pushed |= meets;
         }

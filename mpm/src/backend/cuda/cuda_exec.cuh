@@ -204,7 +204,7 @@ struct CudaExec {
   /// far shape still costs its contact terms there; the CPU backend skips them).
   bool partsReach(const Binning& /*b*/, const PartView* /*parts*/, int nParts) const { return nParts > 0; }
   /// Every node and particle tries every part (bounds first): no lists per block.
-  void findNearParts(Binning& /*b*/, const PartView* /*parts*/, int /*nParts*/) {}
+  void findNearParts(Binning& /*b*/, const PartView* /*parts*/, int /*nParts*/, bool /*selectCentroids*/) {}
   void contactPass(Binning& b, const PartView* parts, int nParts, const BodyView* bodies, int nBodies,
                    ContactSums* out, int pass);
   /// P2G, then the node kernel `update` on every active node (NoNodeUpdate: none) in a
