@@ -717,9 +717,9 @@ MPM_HD void placePart(PartView& p, const BodyView& b, float margin, float touchR
     const Vec3f corner{(c & 1) ? p.localUpper.x : p.localLower.x, (c & 2) ? p.localUpper.y : p.localLower.y,
                        (c & 4) ? p.localUpper.z : p.localLower.z};
     const Vec3f w = p.position + p.rotation * corner;
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = fminf(lo[a], w[a]);
-      hi[a] = fmaxf(hi[a], w[a]);
+    for (int a = 0; a < 3; ++a) {  // fminf / fmaxf (a NaN corner is skipped), inline: not a libm call each
+      lo[a] = w[a] < lo[a] ? w[a] : lo[a];
+      hi[a] = w[a] > hi[a] ? w[a] : hi[a];
     }
   }
   const float grow = margin + fmaxf(fmaxf(b.band, p.band), 0.f);
