@@ -353,7 +353,7 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
           hi[a] = std::fmin(part.pushUpper[a], part.position[a] + 0.2f) + 2.f * reach;
         }
         const auto check = [&](Vec3f x, bool face) {
-          if (part.mayPush(x)) {
+          if (part.mayPush(x, x)) {
             bool touch = false;
             Vec3f y = x;
             if (pushOutOfPart(y, part, largest, touch) || touch) ++touchingInside;

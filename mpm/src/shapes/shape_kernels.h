@@ -184,10 +184,11 @@ struct PartView {
     return !(hi.x < boundsLower.x || lo.x > boundsUpper.x || hi.y < boundsLower.y ||
              lo.y > boundsUpper.y || hi.z < boundsLower.z || lo.z > boundsUpper.z);
   }
-  /// Whether a particle at x may be pushed out of the part or touch it (pushLower/Upper).
-  MPM_HD bool mayPush(Vec3f x) const {
-    return !(x.x < pushLower.x || x.x > pushUpper.x || x.y < pushLower.y || x.y > pushUpper.y ||
-             x.z < pushLower.z || x.z > pushUpper.z);
+  /// Whether a particle in the box lo..hi may be pushed out of the part or touch it
+  /// (pushLower/Upper; a particle at x: mayPush(x, x)).
+  MPM_HD bool mayPush(Vec3f lo, Vec3f hi) const {
+    return !(hi.x < pushLower.x || lo.x > pushUpper.x || hi.y < pushLower.y || lo.y > pushUpper.y ||
+             hi.z < pushLower.z || lo.z > pushUpper.z);
   }
 };
 
@@ -508,9 +509,9 @@ MPM_HD bool pushOutOfPart(Vec3f& x, const PartView& part, float volume0, bool& t
 ///
 /// Only the parts whose push-out box holds x (mayPush): outside it a part neither pushes
 /// nor touches x. With `near`, only its parts while x lies in its box: every other part's
-/// bounds miss the box, so mayPush(x) fails for them and skipping them changes nothing. Once x is outside
-/// the box (it moved there, or a push took it there) the parts after the last one visited
-/// are all tried, so the result is the full loop's, bit for bit.
+/// push-out box misses the box, so mayPush fails for them and skipping them changes
+/// nothing. Once x is outside the box (it moved there, or a push took it there) the parts
+/// after the last one visited are all tried, so the result is the full loop's, bit for bit.
 MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float volume0, const NearParts& near) {
   bool touch = false;
   int next = 0;  // the first part not yet visited
@@ -525,7 +526,7 @@ MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float vo
     if (k == near.count) return touch;
   }
   for (int i = next; i < nParts; ++i)
-    if (parts[i].mayPush(x)) pushOutOfPart(x, parts[i], volume0, touch);
+    if (parts[i].mayPush(x, x)) pushOutOfPart(x, parts[i], volume0, touch);
   return touch;
 }
 

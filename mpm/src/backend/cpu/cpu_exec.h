@@ -594,7 +594,8 @@ struct CpuExec {
     /// The parts near each active block, for the contact passes and G2P of this substep
     /// (after binning and placing the parts): those whose bounds meet the block's nodes
     /// grown by kNearBelow cells below and kNearAbove above (nearBox), in part order, as
-    /// one list per block (nearStart_, nearParts_).
+    /// one list per block (nearStart_, nearParts_), and G2P's shorter one of the parts
+    /// whose push-out boxes meet it (pushStart_, pushParts_).
     ///
     /// Why: with every part tried everywhere, 100 small spheres on 8000 particles cost 2.6x
     /// a substep without them (issue 19): G2P tried each part's bounds for every particle,
@@ -642,15 +643,26 @@ struct CpuExec {
       }
       // by block, stable: each block's parts stay in part order
       nearStart_.assign(nActive + 1, 0u);
-      for (const NearPair& q : nearPairs_) ++nearStart_[q.slot + 1];
-      for (size_t slot = 0; slot < nActive; ++slot) nearStart_[slot + 1] += nearStart_[slot];
+      pushStart_.assign(nActive + 1, 0u);
+      for (const NearPair& q : nearPairs_) {
+        ++nearStart_[q.slot + 1];
+        pushStart_[q.slot + 1] += q.push;
+      }
+      for (size_t slot = 0; slot < nActive; ++slot) {
+        nearStart_[slot + 1] += nearStart_[slot];
+        pushStart_[slot + 1] += pushStart_[slot];
+      }
       listed_.clear();
       for (size_t slot = 0; slot < nActive; ++slot)
         if (nearStart_[slot + 1] > nearStart_[slot]) listed_.push_back((uint32_t)slot);
       nearParts_.resize(nearPairs_.size());
+      pushParts_.resize(pushStart_[nActive]);
       cursor_.assign(nearStart_.begin(), nearStart_.end() - 1);
-      for (const NearPair& q : nearPairs_)
-        nearParts_[cursor_[q.slot]++] = NearPart{q.part, parts[q.part].pushLower, parts[q.part].pushUpper};
+      pushCursor_.assign(pushStart_.begin(), pushStart_.end() - 1);
+      for (const NearPair& q : nearPairs_) {
+        nearParts_[cursor_[q.slot]++] = q.part;
+        if (q.push) pushParts_[pushCursor_[q.slot]++] = NearPart{q.part, parts[q.part].pushLower, parts[q.part].pushUpper};
+      }
       nearListed_ = true;
       contactsFound_ = false;  // the parts were placed anew
       centroidsSelected_ = selectCentroids;
@@ -735,8 +747,8 @@ struct CpuExec {
         int nCandidates = -1;  // not yet gathered
         uint32_t run = begin;  // the sum of the current body's run
         for (uint32_t k = begin; k < end; ++k) {
-          const int p = nearParts_[k].index;
-          if (k == begin || parts[p].body != parts[nearParts_[k - 1].index].body) {
+          const int p = nearParts_[k];
+          if (k == begin || parts[p].body != parts[nearParts_[k - 1]].body) {
             run = k;
             blockSums_[run] = ContactSums{};
           }
@@ -805,8 +817,8 @@ struct CpuExec {
       contactsFound_ = true;
       for (size_t slot = 0; slot < nActive; ++slot)
         for (uint32_t k = nearStart_[slot]; k < nearStart_[slot + 1]; ++k) {
-          const int b = parts[nearParts_[k].index].body;
-          if (k > nearStart_[slot] && b == parts[nearParts_[k - 1].index].body) continue;  // within the run
+          const int b = parts[nearParts_[k]].body;
+          if (k > nearStart_[slot] && b == parts[nearParts_[k - 1]].body) continue;  // within the run
           const float* src = &blockSums_[k].impulse[0];
           float* dst = &out[b].impulse[0];
           for (int f = 0; f < kContactSumFloats; ++f) dst[f] += src[f];
@@ -856,7 +868,8 @@ struct CpuExec {
              tiles_.capacity() * sizeof(Float4) + runs +
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
              occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
-             nearParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums) +
+             nearParts_.capacity() * 4 + pushStart_.capacity() * 4 + pushCursor_.capacity() * 4 +
+             pushParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums) +
              contactAt_.capacity() * sizeof(ContactRun);
     }
 
@@ -911,11 +924,18 @@ struct CpuExec {
     struct NearPair {
       uint32_t slot;
       int part;
+      bool push;  ///< the part's push-out box meets the slot's box too (G2P's list)
     };
     std::vector<NearPair> nearPairs_;   ///< (block, part) in part order
     std::vector<uint32_t> nearStart_;   ///< per active slot: its list in nearParts_
     std::vector<uint32_t> listed_;      ///< the active slots whose list is not empty
-    std::vector<NearPart> nearParts_;   ///< the lists, each in part order
+    std::vector<int> nearParts_;        ///< the lists (part indices), each in part order
+    /// G2P's lists: per active slot, the parts on its list whose push-out box (PartView::
+    /// pushLower, pushUpper) meets the slot's box, with a copy of that box, in part order.
+    /// Under 100 small spheres G2P's lanes were tested against a dozen parts a vector,
+    /// most of them the grid's reach away, none holding a particle.
+    std::vector<uint32_t> pushStart_, pushCursor_;
+    std::vector<NearPart> pushParts_;
     bool nearListed_ = false;           ///< the lists are this substep's
     /// selectCentroidBlocks: per active slot, its nodes need their centroids; per occupied
     /// rank, its tile carries them. Without it (mirror planes fold ghost nodes' centroids
@@ -961,7 +981,7 @@ struct CpuExec {
     void addNear(const PartView& part, int p, uint32_t slot, int bx, int by, int bz) {
       Vec3f lo, hi;
       nearBox(bx, by, bz, lo, hi);
-      if (part.mayTouch(lo, hi)) nearPairs_.push_back({slot, p});
+      if (part.mayTouch(lo, hi)) nearPairs_.push_back({slot, p, part.mayPush(lo, hi)});
     }
     /// The box of active block `block`'s nodes [m] (the contact pass's bound on them).
     void nodeBox(uint32_t block, Vec3f& lo, Vec3f& hi) const {
@@ -976,8 +996,8 @@ struct CpuExec {
       if (!nearListed_) return near;
       const int32_t slot = blockSlot_[block];
       static const NearPart kNone{};  // an empty list is still a list
-      near.parts = nearParts_.empty() ? &kNone : nearParts_.data() + nearStart_[slot];
-      near.count = (int)(nearStart_[slot + 1] - nearStart_[slot]);
+      near.parts = pushParts_.empty() ? &kNone : pushParts_.data() + pushStart_[slot];
+      near.count = (int)(pushStart_[slot + 1] - pushStart_[slot]);
       nearBox(block, near.lower, near.upper);
       return near;
     }
