@@ -666,7 +666,7 @@ struct CpuExec {
       nearListed_ = true;
       contactsFound_ = false;  // the parts were placed anew
       centroidsSelected_ = selectCentroids;
-      if (selectCentroids) selectCentroidBlocks(parts);
+      if (selectCentroids) selectCentroidBlocks();
     }
 
     /// The blocks whose nodes need their material centroids this substep (centroidSlot_)
@@ -679,14 +679,9 @@ struct CpuExec {
     /// for every stencil node) and was the largest cost of 100 small spheres on the top face
     /// of a box of 17576 particles (P2G 1.2x the plain scene's), though it is read only in
     /// the blocks along the spheres.
-    void selectCentroidBlocks(const PartView* parts) {
+    void selectCentroidBlocks() {
       centroidSlot_.assign(active_.size(), 0);
-      for (const NearPair& q : nearPairs_) {
-        if (centroidSlot_[q.slot]) continue;
-        Vec3f lo, hi;
-        nodeBox(active_[q.slot], lo, hi);
-        if (parts[q.part].mayTouch(lo, hi)) centroidSlot_[q.slot] = 1;
-      }
+      for (const NearPair& q : nearPairs_) centroidSlot_[q.slot] |= q.nodes;
       centroidRank_.assign(occupied_.size(), 0);
       for (size_t j = 0; j < occupied_.size(); ++j) {
         int c[3];
@@ -738,7 +733,7 @@ struct CpuExec {
         geo_.blockCoords(active_[slot], bx, by, bz);
         const int o[3] = {bx << kBlockBits, by << kBlockBits, bz << kBlockBits};
         Vec3f lo, hi;
-        nodeBox(active_[slot], lo, hi);
+        nodeBox(bx, by, bz, lo, hi);
         GridNode* nodes = grid.nodes + slot * kBlockNodes;
         // The block's nodes that take contact at all, with where their material is: asked
         // once for all the parts near the block (under 100 small spheres a block has about
@@ -789,14 +784,15 @@ struct CpuExec {
           }
         }
       };
-      // Only the blocks with parts near: they hold all the work, and in a small scene they
-      // are few (a slab on a ground plane: its bottom layer; handing out every block in
-      // chunks left one thread with most of them). Each thread takes a contiguous share of
-      // them by list entries, in slot order: mostly the blocks whose nodes it summed in
-      // P2G (in its core's cache), and the list entries it writes (contactAt_, blockSums_)
-      // beside each other. Handed out one at a time, neighbouring entries went to both
-      // threads in turn: under 100 spheres the 2 threads took 54 + 50 us for what one
-      // thread did in 59 (36 + 48 after). A replay of a few thousand recorded contacts is
+      // Only the blocks with parts near: they hold all the work (a slab on a ground plane:
+      // its bottom layer). Each thread takes those among the active slots whose nodes it
+      // summed in P2G (particleToGrid splits the slots so): their nodes are in its core's
+      // cache, and the list entries it writes (contactAt_, blockSums_) lie together. Under
+      // 100 spheres on 2 threads, blocks handed out one at a time took 54 + 50 us for what
+      // one thread did in 59 (neighbouring entries to both threads in turn, nodes from the
+      // other core's cache); split by list entries, 36 + 48 us and a pass of 54-59 us; so,
+      // 47-53 us. The cost: a scene whose contact lies in one thread's slots leaves the
+      // other idle, as P2G's sums do. A replay of a few thousand recorded contacts is
       // shorter than waking a thread (PB-MPM's box on the slab: ~1500 contacts, forty
       // passes a substep).
       const uint32_t nListed = (uint32_t)listed_.size();
@@ -805,12 +801,10 @@ struct CpuExec {
         for (const auto& c : contactsBy_) recorded += c.size();
       const bool parallel = nListed >= kMinParallelBlocks && (find || recorded >= (size_t)kMinParallel);
       pool.run(parallel ? threads : 1, [&](int t, int nt) {
-        const auto from = [&](int k) -> uint32_t {  // the first listed block of share k
-          if (k >= nt) return nListed;
-          const uint32_t target = (uint32_t)((size_t)nearStart_[nActive] * (size_t)k / (size_t)nt);
-          return (uint32_t)(std::partition_point(listed_.begin(), listed_.end(),
-                                                 [&](uint32_t slot) { return nearStart_[slot] < target; }) -
-                            listed_.begin());
+        // the listed blocks among the slots P2G's sums gave this thread
+        const auto from = [&](int k) -> uint32_t {
+          const uint32_t slot = (uint32_t)(nActive * (size_t)k / (size_t)nt);
+          return (uint32_t)(std::lower_bound(listed_.begin(), listed_.end(), slot) - listed_.begin());
         };
         for (uint32_t s = from(t), sEnd = from(t + 1); s < sEnd; ++s) block(listed_[s], t);
       });
@@ -924,7 +918,8 @@ struct CpuExec {
     struct NearPair {
       uint32_t slot;
       int part;
-      bool push;  ///< the part's push-out box meets the slot's box too (G2P's list)
+      bool push;   ///< the part's push-out box meets the slot's box too (G2P's list)
+      bool nodes;  ///< the part's bounds meet the slot's nodes (contactPass's test)
     };
     std::vector<NearPair> nearPairs_;   ///< (block, part) in part order
     std::vector<uint32_t> nearStart_;   ///< per active slot: its list in nearParts_
@@ -981,12 +976,19 @@ struct CpuExec {
     void addNear(const PartView& part, int p, uint32_t slot, int bx, int by, int bz) {
       Vec3f lo, hi;
       nearBox(bx, by, bz, lo, hi);
-      if (part.mayTouch(lo, hi)) nearPairs_.push_back({slot, p, part.mayPush(lo, hi)});
+      if (!part.mayTouch(lo, hi)) return;
+      Vec3f nodesLo, nodesHi;
+      nodeBox(bx, by, bz, nodesLo, nodesHi);
+      nearPairs_.push_back({slot, p, part.mayPush(lo, hi), part.mayTouch(nodesLo, nodesHi)});
     }
     /// The box of active block `block`'s nodes [m] (the contact pass's bound on them).
     void nodeBox(uint32_t block, Vec3f& lo, Vec3f& hi) const {
       int bx, by, bz;
       geo_.blockCoords(block, bx, by, bz);
+      nodeBox(bx, by, bz, lo, hi);
+    }
+    /// The same, of the block at block coordinates (bx, by, bz).
+    void nodeBox(int bx, int by, int bz, Vec3f& lo, Vec3f& hi) const {
       lo = geo_.lower + geo_.dx * Vec3f{(float)(bx << kBlockBits), (float)(by << kBlockBits), (float)(bz << kBlockBits)};
       hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
     }
