@@ -388,6 +388,57 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
   EXPECT_GT(touchingInside, 10000);
 }
 
+// nearerSegment skips a thread's segments whose push-out box lies farther from the node
+// than the node's own distance (surelyFartherThan). Its answer must be the one asking every
+// segment gives: checked on a coiled 60-segment thread (segments of 2 mm, radius 0.25 mm,
+// turning so that segments far apart along it lie side by side), near the origin and 40 m
+// from it, placed as the grid solvers place it (a cell's margin and the particles' touch
+// reach) and as MTLED does (no margin, no reach), at random nodes around it, inside the
+// capsules and at their joints.
+TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
+  const float dx = 2e-3f;
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  long long asked = 0, nearer = 0, skipped = 0;
+  for (const float far : {0.f, 40.f})
+    for (const bool grid : {true, false}) {
+      LineSegmentsDesc d;
+      d.radius = 0.25e-3f;
+      std::vector<Vec3f> points;
+      for (int i = 0; i <= 60; ++i) {  // a helix of radius 3 mm, 4 mm a turn: coils lie 1.3 dx apart
+        const float t = 0.1f * (float)i;
+        points.push_back(Vec3f{far + 3e-3f * std::cos(t * 2.2f), 0.1f + 6.4e-4f * t, 3e-3f * std::sin(t * 2.2f)});
+      }
+      std::vector<BodyView> bodies;
+      std::vector<PartView> parts;
+      appendThread(d, points, {}, grid ? 0.75f * dx : 0.f, Vec3f{far, 0.1f, 0.f}, bodies, parts);
+      for (PartView& part : parts)
+        placePart(part, bodies[part.body], grid ? dx : 0.f, grid ? touchDistance(dx * dx * dx / 8.f) : INFINITY);
+      const int n = (int)parts.size();
+      for (int k = 0; k < 20000; ++k) {
+        const int p = k % n;
+        // a node near segment p: within two cells of a point along it
+        const Vec3f along = points[p] + (0.5f + 0.5f * u(rng)) * (points[p + 1] - points[p]);
+        const Vec3f x = along + (k % 5 == 0 ? 0.2e-3f : 2.f * dx) * Vec3f{u(rng), u(rng), u(rng)};
+        Vec3f nrm;
+        const float own = parts[p].distance(x, nrm);
+        bool every = false;  // the answer asking every segment, in nearerSegment's order
+        for (int q = p - 1; q >= 0 && !every; --q) every = parts[q].distance(x, nrm) <= own;
+        for (int q = p + 1; q < n && !every; ++q) every = parts[q].distance(x, nrm) < own;
+        for (int q = 0; q < n; ++q) skipped += q != p && surelyFartherThan(parts[q], x, own);
+        const bool got = nearerSegment(x, parts.data(), n, p, bodies.data(), own);
+        ASSERT_EQ(got, every) << "far " << far << (grid ? " grid" : " MTLED") << ", segment " << p << ", node "
+                              << x.x << " " << x.y << " " << x.z;
+        ++asked;
+        nearer += got;
+      }
+    }
+  std::printf("%lld nodes asked, %lld nearer another segment; %lld segment distances skipped (%.0f %%)\n", asked,
+              nearer, skipped, 100.0 * (double)skipped / ((double)asked * 59.0));
+  EXPECT_GT(nearer, asked / 10);             // the coils: many nodes lie nearer another segment
+  EXPECT_GT(skipped, (long long)asked * 30);  // and most segments are not asked
+}
+
 // PartView::distance takes a sphere's and a plane's distance in the world frame (no turn
 // into the part's frame and back); it must be the part-frame value, sdfSphere / sdfPlane of
 // R^T (x - anchor) with the normal turned back by R, up to rounding, for a turned part

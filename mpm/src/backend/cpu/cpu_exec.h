@@ -863,7 +863,8 @@ struct CpuExec {
              order_.capacity() * 4 + active_.capacity() * 4 + nodes_.capacity() * sizeof(GridNode) +
              occupied_.capacity() * 8 + nearPairs_.capacity() * sizeof(NearPair) + nearStart_.capacity() * 4 + listed_.capacity() * 4 +
              nearParts_.capacity() * 4 + pushStart_.capacity() * 4 + pushCursor_.capacity() * 4 +
-             pushParts_.capacity() * sizeof(NearPart) + blockSums_.capacity() * sizeof(ContactSums) +
+             pushParts_.capacity() * sizeof(NearPart) + centroidSlot_.capacity() + centroidRank_.capacity() +
+             blockSums_.capacity() * sizeof(ContactSums) +
              contactAt_.capacity() * sizeof(ContactRun);
     }
 
