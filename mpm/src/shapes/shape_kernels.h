@@ -28,6 +28,12 @@ enum : int { kPartPlane = 0, kPartBox, kPartSphere, kPartCapsule, kPartCylinder,
 /// Whether a part is a slicer's blade (it cuts what it passes).
 MPM_HD bool isBlade(int type) { return type == kPartBlade || type == kPartCurvedBlade; }
 
+/// Whether boxes a and b meet (touching faces meet); a NaN bound meets everything, so a part
+/// placed at NaN is tried everywhere rather than skipped.
+MPM_HD bool boxesMeet(Vec3f aLo, Vec3f aHi, Vec3f bLo, Vec3f bHi) {
+  return !(aHi.x < bLo.x || aLo.x > bHi.x || aHi.y < bLo.y || aLo.y > bHi.y || aHi.z < bLo.z || aLo.z > bHi.z);
+}
+
 /// Rigid motion and contact model of one shape.
 struct BodyView {
   Vec3f com;            ///< centre of mass, world [m]
@@ -180,16 +186,10 @@ struct PartView {
     arcLineDistance(p, arcRadius, arcStart, arcEnd, n, t, beyond);
     return rotation * t;
   }
-  MPM_HD bool mayTouch(Vec3f lo, Vec3f hi) const {
-    return !(hi.x < boundsLower.x || lo.x > boundsUpper.x || hi.y < boundsLower.y ||
-             lo.y > boundsUpper.y || hi.z < boundsLower.z || lo.z > boundsUpper.z);
-  }
+  MPM_HD bool mayTouch(Vec3f lo, Vec3f hi) const { return boxesMeet(lo, hi, boundsLower, boundsUpper); }
   /// Whether a particle in the box lo..hi may be pushed out of the part or touch it
   /// (pushLower/Upper; a particle at x: mayPush(x, x)).
-  MPM_HD bool mayPush(Vec3f lo, Vec3f hi) const {
-    return !(hi.x < pushLower.x || lo.x > pushUpper.x || hi.y < pushLower.y || lo.y > pushUpper.y ||
-             hi.z < pushLower.z || lo.z > pushUpper.z);
-  }
+  MPM_HD bool mayPush(Vec3f lo, Vec3f hi) const { return boxesMeet(lo, hi, pushLower, pushUpper); }
 };
 
 /// Velocity of a grid node after contact with a body (seed 000 eqs. 17-18, DESIGN 5).
@@ -493,9 +493,7 @@ struct NearPart {
   Vec3f lower, upper;
 
   /// PartView::mayPush on the copy (the same floats, the same answer).
-  MPM_HD bool mayPush(Vec3f x) const {
-    return !(x.x < lower.x || x.x > upper.x || x.y < lower.y || x.y > upper.y || x.z < lower.z || x.z > upper.z);
-  }
+  MPM_HD bool mayPush(Vec3f x) const { return boxesMeet(x, x, lower, upper); }
 };
 
 /// The parts that can reach a box of space, for the particles in it (CpuExec::Binning,

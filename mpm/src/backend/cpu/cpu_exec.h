@@ -967,8 +967,8 @@ struct CpuExec {
     }
     /// The same, of the block at block coordinates (bx, by, bz).
     void nearBox(int bx, int by, int bz, Vec3f& lo, Vec3f& hi) const {
-      const Vec3f first = geo_.lower + geo_.dx * Vec3f{(float)(bx << kBlockBits), (float)(by << kBlockBits),
-                                                       (float)(bz << kBlockBits)};
+      Vec3f first, last;
+      nodeBox(bx, by, bz, first, last);
       lo = first - ((float)kNearBelow * geo_.dx) * Vec3f{1.f, 1.f, 1.f};
       hi = first + ((float)(kBlockSize - 1 + kNearAbove) * geo_.dx) * Vec3f{1.f, 1.f, 1.f};
     }
@@ -982,13 +982,8 @@ struct CpuExec {
       nodeBox(bx, by, bz, nodesLo, nodesHi);
       nearPairs_.push_back({slot, p, part.mayPush(lo, hi), part.mayTouch(nodesLo, nodesHi)});
     }
-    /// The box of active block `block`'s nodes [m] (the contact pass's bound on them).
-    void nodeBox(uint32_t block, Vec3f& lo, Vec3f& hi) const {
-      int bx, by, bz;
-      geo_.blockCoords(block, bx, by, bz);
-      nodeBox(bx, by, bz, lo, hi);
-    }
-    /// The same, of the block at block coordinates (bx, by, bz).
+    /// The box of the nodes of the block at block coordinates (bx, by, bz) [m] (the contact
+    /// pass's bound on them).
     void nodeBox(int bx, int by, int bz, Vec3f& lo, Vec3f& hi) const {
       lo = geo_.lower + geo_.dx * Vec3f{(float)(bx << kBlockBits), (float)(by << kBlockBits), (float)(bz << kBlockBits)};
       hi = lo + (geo_.dx * (kBlockSize - 1)) * Vec3f{1.f, 1.f, 1.f};
