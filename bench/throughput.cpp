@@ -9,7 +9,7 @@
 // uses": far-shapes (four kinematic shapes in the domain's top corners, far from every
 // particle), big-domain (the domain 8x larger in node count, the box the same), neo-hookean
 // (the other elastic law), many-shapes (100 small kinematic spheres resting on the box; -400:
-// 400). The memory bandwidth of the machine is measured at the start of
+// 400), thread (a thread of 100 dynamic segments lying on it). The memory bandwidth of the machine is measured at the start of
 // the run (bandwidth.h) and each row's achieved bytes per second is set against it.
 //
 //   bench_throughput --sizes 1,2.5 --variants plain,far-shapes,big-domain
@@ -63,15 +63,16 @@ static_assert(kBytesPerParticleSubstep == 204, "particle layout changed: recount
 
 /// A variant of the CRESSim scene, for the "pay only for what a scene uses" pairs.
 struct SceneVariant {
-  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes(-400)
+  std::string name;  ///< plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes(-400), thread
 
   static SceneVariant parse(const std::string& name) {
     if (name == "plain" || name == "far-shapes" || name == "big-domain" || name == "neo-hookean" ||
-        name == "slicer" || name == "slicer-tough" || name == "many-shapes" || name == "many-shapes-400")
+        name == "slicer" || name == "slicer-tough" || name == "many-shapes" || name == "many-shapes-400" ||
+        name == "thread")
       return SceneVariant{name};
     throw mpm::InvalidArgument("--variants", name,
-                               "is not plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes"
-                               " or many-shapes-400");
+                               "is not plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes,"
+                               " many-shapes-400 or thread");
   }
   /// big-domain: [-11.1, 11.1]^3, 111 cells per axis (8.1x the nodes of 56^3), grown by
   /// whole grid blocks (7 x 0.8 m) on each side so the box sits on the grid exactly as in
@@ -129,24 +130,39 @@ struct SceneVariant {
   /// every tick, so they stay on it, and they sink into it at 0.1 dx/s: falling with the box
   /// alone, nothing approaches them and no node exchanges momentum (measured: impulse 0);
   /// sinking, all 100 push on the box in almost every frame of the run.
+  /// thread: the same for a thread (mpm/curves.h, LineSegmentsDesc) of 100 dynamic segments
+  /// of about 0.9 dx (radius 0.1 dx, 50 g/m, friction 0.2), lying in seven rows 0.3 of the
+  /// box's half-size apart across its top face, its centre line a tenth of a cell into it:
+  /// 100 bodies, each with the four contact passes of a dynamic body per substep (three
+  /// measuring), and each band node asking the thread's other segments whether they are
+  /// nearer (nearerSegment), as the suturing demo's thread does.
   struct Spheres {
     std::vector<mpm::ShapeId> ids;
+    mpm::CurveId thread;
+    std::vector<mpm::Vec3f> points;  ///< the thread's points at time 0 [m]
     float top = 0;   ///< the centres' height at time 0 [m]
     float sink = 0;  ///< their speed into the box [m/s]
-    /// Places the spheres on the box's free fall at the scene's time (a kinematic shape
-    /// moves on at constant velocity within a frame: 0.5 g dt^2 = 0.2 mm behind at its end).
+    /// Places the spheres (and the thread's points) on the box's free fall at the scene's
+    /// time (a kinematic shape moves on at constant velocity within a frame: 0.5 g dt^2 =
+    /// 0.2 mm behind at its end).
     void follow(mpm::Scene& scene) const {
       const float t = (float)scene.time(), g = scene.settings().gravity.y;
+      const mpm::Vec3f velocity{0.f, g * t - sink, 0.f};
       for (const mpm::ShapeId id : ids) {
         mpm::ShapeState s = scene.shapeState(id);
         s.pose.position.y = top + 0.5f * g * t * t - sink * t;
-        s.linearVelocity = {0.f, g * t - sink, 0.f};
+        s.linearVelocity = velocity;
         scene.setShapeState(id, s);
       }
+      if (points.empty()) return;
+      std::vector<mpm::Vec3f> x = points;
+      for (mpm::Vec3f& p : x) p.y = p.y + 0.5f * g * t * t - sink * t;
+      scene.setCurvePoints(thread, x, std::vector<mpm::Vec3f>(x.size(), velocity));
     }
   };
   Spheres addManyShapes(mpm::Scene& scene, float halfSize) const {
     Spheres out;
+    if (name == "thread") return addThread(scene, halfSize);
     if (name != "many-shapes" && name != "many-shapes-400") return out;
     const int perSide = name == "many-shapes" ? 10 : 20;
     const float dx = scene.settings().dx, pitch = 2.f * halfSize / (float)perSide;
@@ -160,6 +176,37 @@ struct SceneVariant {
         d.pose.position = {-halfSize + (i + 0.5f) * pitch, out.top, -halfSize + (k + 0.5f) * pitch};
         out.ids.push_back(scene.addShape(d));
       }
+    return out;
+  }
+  /// The thread: 101 points at equal steps along seven rows along x (0.9 of the half-size
+  /// either side) joined at alternate ends, its centre line 0.1 dx below the top face.
+  Spheres addThread(mpm::Scene& scene, float halfSize) const {
+    Spheres out;
+    const float dx = scene.settings().dx, reach = 0.9f * halfSize;
+    constexpr int kRows = 7, kSegments = 100;
+    const float spacing = 2.f * reach / (float)(kRows - 1), row = 2.f * reach;
+    const float length = kRows * row + (kRows - 1) * spacing;
+    out.top = halfSize - 0.1f * dx;
+    out.sink = 0.1f * dx;
+    for (int i = 0; i <= kSegments; ++i) {
+      float s = length * (float)i / (float)kSegments;  // along the path
+      int r = 0;
+      while (r < kRows - 1 && s > row + spacing) {
+        s -= row + spacing;
+        ++r;
+      }
+      const float z = -reach + spacing * (float)r + std::max(0.f, s - row);  // on a turn past the row's end
+      const float along = std::min(s, row);
+      const float x = (r % 2 == 0) ? -reach + along : reach - along;
+      out.points.push_back({x, out.top, z});
+    }
+    mpm::LineSegmentsDesc d;
+    d.points = out.points;
+    d.radius = 0.1f * dx;
+    d.friction = 0.2f;
+    d.linearDensity = 0.05f;
+    d.gravity = scene.settings().gravity;
+    out.thread = scene.addCurve(d);
     return out;
   }
 };
@@ -489,6 +536,8 @@ std::string pairsTable(const std::vector<Row>& rows) {
        " particles beside it; a cut particle transfers through its own side's nodes, cut_transfer.h);"
        " slicer-tough adds the resistance to cutting. Plain runs no cut code: the transfers branch on"
        " a scene flag that stays off until a slicer is added.\n"
+       "- thread: a thread of 100 dynamic segments (about 0.9 dx each) lying in seven rows on the box's top"
+       " face, following its fall and sinking into it at 0.1 dx/s\n"
        "- many-shapes, many-shapes-400: 100 (400) small kinematic spheres resting on the box's top"
        " face, given its free fall every frame (issue 19: a 100-link thread is 100 bodies); the cost"
        " of contact with many shapes at once (the contact pass, the push-out in G2P, the material"
@@ -609,7 +658,9 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " slicer adds a blade across the box moving down at 2 m/s from 0.2 m above it (slicer-tough:"
        " with G_c 1000 J/m^2); many-shapes puts 10 x 10 kinematic spheres (radius 1.5 dx, at most 0.4"
        " of their pitch) on the box's top face, a tenth of a cell into it, moved with its free fall"
-       " each frame and sinking into it at 0.1 dx/s (many-shapes-400: 20 x 20).\n"
+       " each frame and sinking into it at 0.1 dx/s (many-shapes-400: 20 x 20); thread lays a thread"
+       " of 100 dynamic segments (radius 0.1 dx, 50 g/m, friction 0.2) in seven rows across the top"
+       " face, its points moved the same way.\n"
        "- bytes/particle: `Scene::memoryBytes()` (particles, sort scratch and grid blocks) over"
        " the particle count, after the run.\n"
        "- speed-up vs 1 thread: ms/frame of the 1-thread row of the same size, from this run,"
@@ -746,7 +797,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--variants", opt.variants,
                  "scene variants: plain, far-shapes, big-domain, neo-hookean, slicer, slicer-tough, many-shapes,"
-                 " many-shapes-400 (pay-for-use pairs)")
+                 " many-shapes-400, thread (pay-for-use pairs)")
       ->delimiter(',')
       ->capture_default_str();
   app.add_option("--bandwidth-mib", opt.bandwidthMiB,
