@@ -394,12 +394,13 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
 // turning so that segments far apart along it lie side by side), near the origin and 40 m
 // from it, placed as the grid solvers place it (a cell's margin and the particles' touch
 // reach) and as MTLED does (no margin, no reach), at random nodes around it, inside the
-// capsules and at their joints.
+// capsules and at their joints. The same with the contact pass's lists (NearSegments: only
+// the segments listed near the node's block, the nearest kept for the node's next segment).
 TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
   const float dx = 2e-3f;
   std::mt19937 rng(23);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
-  long long asked = 0, nearer = 0, skipped = 0;
+  long long asked = 0, nearer = 0, skipped = 0, listedAsked = 0;
   for (const float far : {0.f, 40.f})
     for (const bool grid : {true, false}) {
       LineSegmentsDesc d;
@@ -415,6 +416,9 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
       for (PartView& part : parts)
         placePart(part, bodies[part.body], grid ? dx : 0.f, grid ? touchDistance(dx * dx * dx / 8.f) : INFINITY);
       const int n = (int)parts.size();
+      const std::vector<int> runFirst(n, 0), runLast(n, n - 1);  // one thread
+      float reach = INFINITY;
+      for (const PartView& part : parts) reach = std::min(reach, part.boundsGrowth);
       for (int k = 0; k < 20000; ++k) {
         const int p = k % n;
         // a node near segment p: within two cells of a point along it
@@ -431,12 +435,39 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
                               << x.x << " " << x.y << " " << x.z;
         ++asked;
         nearer += got;
+        // The contact pass's lists (NearSegments): the segments whose bounds meet a block's
+        // box of 4 to 6 cells holding x, asked for p and then, with the nearest kept, for
+        // p - 1 and p + 1: the same answers as asking every segment.
+        std::vector<int> listed;
+        const Vec3f lo = x - dx * Vec3f{1.5f + 1.5f * u(rng), 1.5f + 1.5f * u(rng), 1.5f + 1.5f * u(rng)};
+        const Vec3f hi = lo + 5.f * dx * Vec3f{1.f, 1.f, 1.f};  // a block's nodes and two cells above
+        for (int q = 0; q < n; ++q)
+          if (parts[q].mayTouch(lo, hi)) listed.push_back(q);
+        NearestSegment kept;
+        NearSegments near;
+        near.parts = listed.data();
+        near.count = (int)listed.size();
+        near.runFirst = runFirst.data();
+        near.runLast = runLast.data();
+        near.reach = reach;
+        near.nearest = &kept;
+        for (const int r : {p, p - 1, p + 1}) {
+          if (r < 0 || r >= n || !parts[r].mayTouch(x, x)) continue;  // the pass asks only the parts in reach
+          const float ownR = parts[r].distance(x, nrm);
+          bool everyR = false;
+          for (int q = 0; q < n && !everyR; ++q) everyR = q != r && (q < r ? parts[q].distance(x, nrm) <= ownR : parts[q].distance(x, nrm) < ownR);
+          ASSERT_EQ(nearerSegment(x, parts.data(), n, r, bodies.data(), ownR, &near), everyR)
+              << "listed: far " << far << (grid ? " grid" : " MTLED") << ", segment " << r << " after " << p;
+          listedAsked += ownR < reach;
+        }
       }
     }
-  std::printf("%lld nodes asked, %lld nearer another segment; %lld segment distances skipped (%.0f %%)\n", asked,
-              nearer, skipped, 100.0 * (double)skipped / ((double)asked * 59.0));
+  std::printf("%lld nodes asked, %lld nearer another segment; %lld segment distances skipped (%.0f %%); "
+              "%lld asked from a block's list\n", asked, nearer, skipped, 100.0 * (double)skipped / ((double)asked * 59.0),
+              listedAsked);
   EXPECT_GT(nearer, asked / 10);             // the coils: many nodes lie nearer another segment
   EXPECT_GT(skipped, (long long)asked * 30);  // and most segments are not asked
+  EXPECT_GT(listedAsked, asked / 2);          // the lists answered most (the grid's growth: 2.5 dx)
 }
 
 // PartView::distance takes a sphere's and a plane's distance in the world frame (no turn

@@ -721,6 +721,7 @@ struct CpuExec {
       blockSums_.resize(nearParts_.size());
       const bool find = !contactsFound_;
       if (find) {
+        findSegmentRuns(parts, nParts, bodies);
         contactAt_.resize(nearParts_.size());
         if ((int)contactsBy_.size() < threads) contactsBy_.resize(threads);
         if ((int)candidatesBy_.size() < threads) candidatesBy_.resize(threads, std::vector<NodeCandidate>(kBlockNodes));
@@ -740,6 +741,12 @@ struct CpuExec {
         // ten). Contact changes only velocities, never these.
         NodeCandidate* candidates = find ? candidatesBy_[t].data() : nullptr;
         int nCandidates = -1;  // not yet gathered
+        NearSegments near;  // a thread's segments that may be nearer to a node (nearerSegment)
+        near.parts = nearParts_.data() + begin;
+        near.count = (int)(end - begin);
+        near.runFirst = runFirst_.data();
+        near.runLast = runLast_.data();
+        near.reach = segmentReach_;
         uint32_t run = begin;  // the sum of the current body's run
         for (uint32_t k = begin; k < end; ++k) {
           const int p = nearParts_[k];
@@ -761,14 +768,15 @@ struct CpuExec {
                                                              (float)(o[2] + (n & kBlockMask))};
                 if (!takesContact(node, x, geo_)) continue;
                 candidates[nCandidates++] = NodeCandidate{x, (1.f / node.mass) * node.mx,
-                                                          materialTouches(node) ? geo_.dx : 0.f, (uint8_t)n};
+                                                          materialTouches(node) ? geo_.dx : 0.f, (uint8_t)n, {}};
               }
             }
             NodeContact g;
             for (int c = 0; c < nCandidates; ++c) {
-              const NodeCandidate& q = candidates[c];
+              NodeCandidate& q = candidates[c];
               if (!parts[p].mayTouch(q.x, q.x)) continue;  // as the CUDA pass: beyond the part's reach
-              if (!nodeContactGeometry(q.x, q.xbar, q.touchingCell, parts, nParts, p, bodies, g)) continue;
+              near.nearest = &q.nearest;
+              if (!nodeContactGeometry(q.x, q.xbar, q.touchingCell, parts, nParts, p, bodies, g, &near)) continue;
               g.node = q.node;
               mine.push_back(g);
             }
@@ -819,6 +827,23 @@ struct CpuExec {
         }
     }
 
+    /// The runs of thread segments among the parts (runFirst_, runLast_: per segment its
+    /// run's first and last part, isThreadSegment) and their least bounds growth
+    /// (segmentReach_), for nearerSegment's lists (NearSegments).
+    void findSegmentRuns(const PartView* parts, int nParts, const BodyView* bodies) {
+      runFirst_.resize((size_t)nParts);
+      runLast_.resize((size_t)nParts);
+      segmentReach_ = INFINITY;
+      for (int p = 0; p < nParts; ++p) {
+        const bool segment = isThreadSegment(parts, nParts, p, bodies);
+        runFirst_[p] = segment && isThreadSegment(parts, nParts, p - 1, bodies) ? runFirst_[p - 1] : p;
+        if (segment) segmentReach_ = std::min(segmentReach_, parts[p].boundsGrowth);
+      }
+      for (int p = nParts - 1; p >= 0; --p)
+        runLast_[p] = isThreadSegment(parts, nParts, p, bodies) && isThreadSegment(parts, nParts, p + 1, bodies)
+                          ? runLast_[p + 1] : p;
+    }
+
     /// Whether any part's bounds (grown by its contact reach) meet the box of the active
     /// blocks: if none does, no node or particle can touch a shape this substep.
     bool partsReach(const PartView* parts, int nParts) const {
@@ -865,7 +890,7 @@ struct CpuExec {
              nearParts_.capacity() * 4 + pushStart_.capacity() * 4 + pushCursor_.capacity() * 4 +
              pushParts_.capacity() * sizeof(NearPart) + centroidSlot_.capacity() + centroidRank_.capacity() +
              blockSums_.capacity() * sizeof(ContactSums) +
-             contactAt_.capacity() * sizeof(ContactRun);
+             contactAt_.capacity() * sizeof(ContactRun) + (runFirst_.capacity() + runLast_.capacity()) * 4;
     }
 
    private:
@@ -942,6 +967,7 @@ struct CpuExec {
       Vec3f x, xbar;
       float touchingCell;
       uint8_t node;
+      NearestSegment nearest;  ///< its nearest segment of a thread, once found (nearerSegment)
     };
     struct ContactRun {
       uint32_t start;
@@ -957,6 +983,8 @@ struct CpuExec {
     std::vector<std::vector<NodeCandidate>> candidatesBy_;  ///< per thread: one block's candidates
     mutable bool contactsFound_ = false;
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
+    std::vector<int> runFirst_, runLast_;  ///< findSegmentRuns
+    float segmentReach_ = 0.f;
 
     /// The box of active block `block`'s list: its nodes grown by kNearBelow cells below
     /// and kNearAbove above [m].
