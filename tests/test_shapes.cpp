@@ -400,7 +400,8 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
   const float dx = 2e-3f;
   std::mt19937 rng(23);
   std::uniform_real_distribution<float> u(-1.f, 1.f);
-  long long asked = 0, nearer = 0, skipped = 0, listedAsked = 0;
+  long long asked = 0, nearer = 0, skipped = 0, listedAsked = 0, bandedAsked = 0;
+  constexpr int kTurn = 29;  // segments a turn of the helix (2 pi / 0.22 = 28.6)
   for (const float far : {0.f, 40.f})
     for (const bool grid : {true, false}) {
       LineSegmentsDesc d;
@@ -417,13 +418,22 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
         placePart(part, bodies[part.body], grid ? dx : 0.f, grid ? touchDistance(dx * dx * dx / 8.f) : INFINITY);
       const int n = (int)parts.size();
       const std::vector<int> runFirst(n, 0), runLast(n, n - 1);  // one thread
-      float reach = INFINITY;
-      for (const PartView& part : parts) reach = std::min(reach, part.boundsGrowth);
+      const std::vector<uint8_t> isSegment(n, 1);
+      float reach = INFINITY, band = 0.f;
+      for (const PartView& part : parts) {
+        reach = std::min(reach, part.boundsGrowth);
+        band = std::max(band, std::max(bodies[part.body].band, part.band));
+      }
       for (int k = 0; k < 20000; ++k) {
         const int p = k % n;
         // a node near segment p: within two cells of a point along it
-        const Vec3f along = points[p] + (0.5f + 0.5f * u(rng)) * (points[p + 1] - points[p]);
-        const Vec3f x = along + (k % 5 == 0 ? 0.2e-3f : 2.f * dx) * Vec3f{u(rng), u(rng), u(rng)};
+        const float s = 0.5f + 0.5f * u(rng);
+        const Vec3f along = points[p] + s * (points[p + 1] - points[p]);
+        Vec3f x = along + (k % 5 == 0 ? 0.2e-3f : 2.f * dx) * Vec3f{u(rng), u(rng), u(rng)};
+        if (k % 4 == 3 && p + kTurn < n) {  // or between two coils, in both segments' bands
+          const Vec3f across = points[p + kTurn] + s * (points[p + kTurn + 1] - points[p + kTurn]);
+          x = along + (0.5f + 0.2f * u(rng)) * (across - along) + 0.4f * dx * Vec3f{u(rng), u(rng), u(rng)};
+        }
         Vec3f nrm;
         const float own = parts[p].distance(x, nrm);
         bool every = false;  // the answer asking every segment, in nearerSegment's order
@@ -436,38 +446,49 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
         ++asked;
         nearer += got;
         // The contact pass's lists (NearSegments): the segments whose bounds meet a block's
-        // box of 4 to 6 cells holding x, asked for p and then, with the nearest kept, for
-        // p - 1 and p + 1: the same answers as asking every segment.
-        std::vector<int> listed;
-        const Vec3f lo = x - dx * Vec3f{1.5f + 1.5f * u(rng), 1.5f + 1.5f * u(rng), 1.5f + 1.5f * u(rng)};
-        const Vec3f hi = lo + 5.f * dx * Vec3f{1.f, 1.f, 1.f};  // a block's nodes and two cells above
+        // box (its nodes' box of 3 cells holding x, and two cells above), and of those the
+        // ones within the widest band of the nodes' box (segmentsWithin), asked for p and
+        // then, with the nearest kept, for p - 1 and p + 1: the same answers as asking every
+        // segment.
+        std::vector<int> listed, within(n);
+        Vec3f lo = x - dx * Vec3f{1.5f + 1.5f * u(rng), 1.5f + 1.5f * u(rng), 1.5f + 1.5f * u(rng)};
+        if (k % 3 == 0) lo[k % 7 % 3] = x[k % 7 % 3] - (k % 2 ? 0.f : 3.f * dx);  // x on a face of the nodes' box
+        const Vec3f nodesHi = lo + 3.f * dx * Vec3f{1.f, 1.f, 1.f}, hi = lo + 5.f * dx * Vec3f{1.f, 1.f, 1.f};
         for (int q = 0; q < n; ++q)
           if (parts[q].mayTouch(lo, hi)) listed.push_back(q);
-        NearestSegment kept;
-        NearSegments near;
-        near.parts = listed.data();
-        near.count = (int)listed.size();
-        near.runFirst = runFirst.data();
-        near.runLast = runLast.data();
-        near.reach = reach;
-        near.nearest = &kept;
-        for (const int r : {p, p - 1, p + 1}) {
-          if (r < 0 || r >= n || !parts[r].mayTouch(x, x)) continue;  // the pass asks only the parts in reach
-          const float ownR = parts[r].distance(x, nrm);
-          bool everyR = false;
-          for (int q = 0; q < n && !everyR; ++q) everyR = q != r && (q < r ? parts[q].distance(x, nrm) <= ownR : parts[q].distance(x, nrm) < ownR);
-          ASSERT_EQ(nearerSegment(x, parts.data(), n, r, bodies.data(), ownR, &near), everyR)
-              << "listed: far " << far << (grid ? " grid" : " MTLED") << ", segment " << r << " after " << p;
-          listedAsked += ownR < reach;
+        const int nWithin = segmentsWithin(parts.data(), listed.data(), (int)listed.size(), isSegment.data(), lo, nodesHi,
+                                           band, within.data());
+        for (const bool banded : {false, true}) {
+          NearestSegment kept;
+          NearSegments near;
+          near.parts = banded ? within.data() : listed.data();
+          near.count = banded ? nWithin : (int)listed.size();
+          near.runFirst = runFirst.data();
+          near.runLast = runLast.data();
+          near.reach = banded ? std::min(reach, band) : reach;
+          near.nearest = &kept;
+          for (const int r : {p, p - 1, p + 1}) {
+            if (r < 0 || r >= n || !parts[r].mayTouch(x, x)) continue;  // the pass asks only the parts in reach
+            const float ownR = parts[r].distance(x, nrm);
+            if (banded && !(ownR < band)) continue;  // the pass asks only for nodes in the band
+            bool everyR = false;
+            for (int q = 0; q < n && !everyR; ++q)
+              everyR = q != r && (q < r ? parts[q].distance(x, nrm) <= ownR : parts[q].distance(x, nrm) < ownR);
+            ASSERT_EQ(nearerSegment(x, parts.data(), n, r, bodies.data(), ownR, &near), everyR)
+                << (banded ? "banded" : "listed") << ": far " << far << (grid ? " grid" : " MTLED") << ", segment "
+                << r << " after " << p;
+            (banded ? bandedAsked : listedAsked) += ownR < near.reach;
+          }
         }
       }
     }
   std::printf("%lld nodes asked, %lld nearer another segment; %lld segment distances skipped (%.0f %%); "
-              "%lld asked from a block's list\n", asked, nearer, skipped, 100.0 * (double)skipped / ((double)asked * 59.0),
-              listedAsked);
+              "%lld asked from a block's list, %lld from its segments within the band\n", asked, nearer, skipped,
+              100.0 * (double)skipped / ((double)asked * 59.0), listedAsked, bandedAsked);
   EXPECT_GT(nearer, asked / 10);             // the coils: many nodes lie nearer another segment
   EXPECT_GT(skipped, (long long)asked * 30);  // and most segments are not asked
   EXPECT_GT(listedAsked, asked / 2);          // the lists answered most (the grid's growth: 2.5 dx)
+  EXPECT_GT(bandedAsked, asked / 4);          // and the band's lists most of the band's nodes
 }
 
 // PartView::distance takes a sphere's and a plane's distance in the world frame (no turn

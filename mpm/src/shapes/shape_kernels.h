@@ -310,16 +310,44 @@ MPM_HD bool surelyFartherThan(const PartView& q, Vec3f x, float phi) {
   return box - slack > phi;
 }
 
+/// The thread segments (`segment[q]`) among the parts listed near a block of nodes
+/// (`listed`, `count` of them) whose push-out boxes lie within `band` of the nodes' box
+/// lo..hi (plus a rounding slack), in list order, into `out`; returns how many. A node asks
+/// for a nearer segment only when it is within a segment's band, so a segment farther from
+/// it than the widest band cannot be nearer (nearerSegment, NearSegments::reach). Under a
+/// thread lying in rows the blocks' lists held about 40 segments a walk.
+MPM_HD int segmentsWithin(const PartView* parts, const int* listed, int count, const uint8_t* segment, Vec3f lo,
+                          Vec3f hi, float band, int* out) {
+  const float slack =
+      1e-5f * (fabsf(lo.x) + fabsf(lo.y) + fabsf(lo.z) + fabsf(hi.x) + fabsf(hi.y) + fabsf(hi.z) + band);
+  const float within = band + slack;
+  int n = 0;
+  for (int k = 0; k < count; ++k) {
+    const int q = listed[k];
+    if (!segment[q]) continue;
+    float gap2 = 0.f;
+    for (int a = 0; a < 3; ++a) {
+      const float below = parts[q].pushLower[a] - hi[a], above = lo[a] - parts[q].pushUpper[a];
+      const float d = below > 0.f ? below : (above > 0.f ? above : 0.f);  // NaN: 0, kept
+      gap2 += d * d;
+    }
+    if (gap2 < within * within) out[n++] = q;
+  }
+  return n;
+}
+
 /// A node's nearest segment of a thread (the first of equally near ones), once found
 /// (nearerSegment): `run` is the thread's first part, -1 before.
 struct NearestSegment {
   int run = -1, part = -1;
 };
 
-/// The parts near a block of grid nodes, for nearerSegment: the block's list (in part
-/// order), per part the first and last part of its run of thread segments (isThreadSegment,
-/// consecutive), the least boundsGrowth of the segments [m], and the node's nearest segment
-/// as far as found (null: not kept).
+/// The parts near a block of grid nodes, for nearerSegment: the thread segments listed near
+/// the block (in part order; segmentsWithin), per part the first and last part of its run
+/// of thread segments (isThreadSegment, consecutive), `reach`: no segment off the list lies
+/// nearer to a node of the block than this [m] (the least boundsGrowth of the segments, and
+/// the widest band with segmentsWithin), and the node's nearest segment as far as found
+/// (null: not kept).
 struct NearSegments {
   const int* parts = nullptr;
   int count = 0;
@@ -349,15 +377,15 @@ MPM_HD bool isThreadSegment(const PartView* parts, int nParts, int q, const Body
 /// not asked (surelyFartherThan): along a 100-link thread most are, and asking each had made
 /// the distance a fifth of a suturing scene's time.
 ///
-/// `near` (the CPU's contact pass; null: none): the parts listed near the node's block, and
-/// the least growth of the thread's segments' bounds. A segment off that list has bounds
-/// that miss the node, so it lies farther than that growth from it: with the node's own
-/// distance below it (less a rounding slack), only the listed segments are asked, and the
-/// nearest of them is the thread's nearest segment, kept for the node's other segments
-/// (p is nearer than every other exactly when it is the first of the nearest). On a
-/// 100-link thread lying on a box every band node had tried all 99 other segments' boxes
-/// (surelyFartherThan alone was 13 % of the run), for each of the 2-3 segments whose band
-/// holds it.
+/// `near` (the CPU's contact pass; null: none): the segments listed near the node's block.
+/// A segment off the block's list has bounds that miss the node, so it lies farther than
+/// their growth from it, and one listed but left out lies farther than the widest band
+/// (segmentsWithin): with the node's own distance below both (NearSegments::reach, less a
+/// rounding slack), only the listed segments are asked, and the nearest of them is the
+/// thread's nearest segment, kept for the node's other segments (p is nearer than every
+/// other exactly when it is the first of the nearest). On a 100-link thread lying on a box
+/// every band node had tried all 99 other segments' boxes (surelyFartherThan alone was 13 %
+/// of the run), for each of the 2-3 segments whose band holds it.
 /// `own`: part p's distance at x.
 MPM_HD bool nearerSegment(Vec3f x, const PartView* parts, int nParts, int p, const BodyView* bodies, float own,
                           const NearSegments* near = nullptr) {

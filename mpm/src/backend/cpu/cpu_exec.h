@@ -725,6 +725,7 @@ struct CpuExec {
         contactAt_.resize(nearParts_.size());
         if ((int)contactsBy_.size() < threads) contactsBy_.resize(threads);
         if ((int)candidatesBy_.size() < threads) candidatesBy_.resize(threads, std::vector<NodeCandidate>(kBlockNodes));
+        if ((int)segmentsBy_.size() < threads) segmentsBy_.resize(threads);
         for (auto& c : contactsBy_) c.clear();
       }
       const auto block = [&](uint32_t slot, int t) {
@@ -742,11 +743,8 @@ struct CpuExec {
         NodeCandidate* candidates = find ? candidatesBy_[t].data() : nullptr;
         int nCandidates = -1;  // not yet gathered
         NearSegments near;  // a thread's segments that may be nearer to a node (nearerSegment)
-        near.parts = nearParts_.data() + begin;
-        near.count = (int)(end - begin);
         near.runFirst = runFirst_.data();
         near.runLast = runLast_.data();
-        near.reach = segmentReach_;
         uint32_t run = begin;  // the sum of the current body's run
         for (uint32_t k = begin; k < end; ++k) {
           const int p = nearParts_[k];
@@ -770,6 +768,12 @@ struct CpuExec {
                 candidates[nCandidates++] = NodeCandidate{x, (1.f / node.mass) * node.mx,
                                                           materialTouches(node) ? geo_.dx : 0.f, (uint8_t)n, {}};
               }
+              std::vector<int>& segments = segmentsBy_[t];
+              segments.resize(end - begin);
+              near.parts = segments.data();
+              near.count = segmentsWithin(parts, nearParts_.data() + begin, (int)(end - begin), segment_.data(), lo, hi,
+                                          segmentBand_, segments.data());
+              near.reach = std::min(segmentReach_, segmentBand_);
             }
             NodeContact g;
             for (int c = 0; c < nCandidates; ++c) {
@@ -828,16 +832,22 @@ struct CpuExec {
     }
 
     /// The runs of thread segments among the parts (runFirst_, runLast_: per segment its
-    /// run's first and last part, isThreadSegment) and their least bounds growth
-    /// (segmentReach_), for nearerSegment's lists (NearSegments).
+    /// run's first and last part, isThreadSegment), which parts are segments (segment_), their
+    /// least bounds growth (segmentReach_) and their widest band (segmentBand_), for
+    /// nearerSegment's lists (NearSegments, nearSegments).
     void findSegmentRuns(const PartView* parts, int nParts, const BodyView* bodies) {
       runFirst_.resize((size_t)nParts);
       runLast_.resize((size_t)nParts);
+      segment_.resize((size_t)nParts);
       segmentReach_ = INFINITY;
+      segmentBand_ = 0.f;
       for (int p = 0; p < nParts; ++p) {
         const bool segment = isThreadSegment(parts, nParts, p, bodies);
+        segment_[p] = segment;
         runFirst_[p] = segment && isThreadSegment(parts, nParts, p - 1, bodies) ? runFirst_[p - 1] : p;
-        if (segment) segmentReach_ = std::min(segmentReach_, parts[p].boundsGrowth);
+        if (!segment) continue;
+        segmentReach_ = std::min(segmentReach_, parts[p].boundsGrowth);
+        segmentBand_ = std::max(segmentBand_, std::max(bodies[parts[p].body].band, parts[p].band));
       }
       for (int p = nParts - 1; p >= 0; --p)
         runLast_[p] = isThreadSegment(parts, nParts, p, bodies) && isThreadSegment(parts, nParts, p + 1, bodies)
@@ -890,7 +900,8 @@ struct CpuExec {
              nearParts_.capacity() * 4 + pushStart_.capacity() * 4 + pushCursor_.capacity() * 4 +
              pushParts_.capacity() * sizeof(NearPart) + centroidSlot_.capacity() + centroidRank_.capacity() +
              blockSums_.capacity() * sizeof(ContactSums) +
-             contactAt_.capacity() * sizeof(ContactRun) + (runFirst_.capacity() + runLast_.capacity()) * 4;
+             contactAt_.capacity() * sizeof(ContactRun) + (runFirst_.capacity() + runLast_.capacity()) * 4 +
+             segment_.capacity();
     }
 
    private:
@@ -984,7 +995,9 @@ struct CpuExec {
     mutable bool contactsFound_ = false;
     std::vector<ContactSums> blockSums_;  ///< per list entry: its body's run's sum in the block
     std::vector<int> runFirst_, runLast_;  ///< findSegmentRuns
-    float segmentReach_ = 0.f;
+    std::vector<uint8_t> segment_;
+    float segmentReach_ = 0.f, segmentBand_ = 0.f;
+    std::vector<std::vector<int>> segmentsBy_;  ///< per thread: one block's nearSegments
 
     /// The box of active block `block`'s list: its nodes grown by kNearBelow cells below
     /// and kNearAbove above [m].
