@@ -834,7 +834,7 @@ struct CpuExec {
     /// The runs of thread segments among the parts (runFirst_, runLast_: per segment its
     /// run's first and last part, isThreadSegment), which parts are segments (segment_), their
     /// least bounds growth (segmentReach_) and their widest band (segmentBand_), for
-    /// nearerSegment's lists (NearSegments, nearSegments).
+    /// nearerSegment's lists (NearSegments, segmentsWithin).
     void findSegmentRuns(const PartView* parts, int nParts, const BodyView* bodies) {
       runFirst_.resize((size_t)nParts);
       runLast_.resize((size_t)nParts);
@@ -892,6 +892,7 @@ struct CpuExec {
       size_t runs = 0;
       for (const auto& r : runs_) runs += r.capacity() * sizeof(BlockRun);
       for (const auto& c : contactsBy_) runs += c.capacity() * sizeof(NodeContact);
+      for (const auto& s : segmentsBy_) runs += s.capacity() * sizeof(int);
       runs += candidatesBy_.size() * kBlockNodes * sizeof(NodeCandidate);
       return blockCount_.capacity() * 4 + blockSlot_.capacity() * 4 + occupiedRank_.capacity() * 4 +
              tiles_.capacity() * sizeof(Float4) + runs +
@@ -997,7 +998,7 @@ struct CpuExec {
     std::vector<int> runFirst_, runLast_;  ///< findSegmentRuns
     std::vector<uint8_t> segment_;
     float segmentReach_ = 0.f, segmentBand_ = 0.f;
-    std::vector<std::vector<int>> segmentsBy_;  ///< per thread: one block's nearSegments
+    std::vector<std::vector<int>> segmentsBy_;  ///< per thread: one block's segmentsWithin
 
     /// The box of active block `block`'s list: its nodes grown by kNearBelow cells below
     /// and kNearAbove above [m].
