@@ -9,8 +9,9 @@
 // uses": far-shapes (four kinematic shapes in the domain's top corners, far from every
 // particle), big-domain (the domain 8x larger in node count, the box the same), neo-hookean
 // (the other elastic law), many-shapes (100 small kinematic spheres resting on the box; -400:
-// 400), thread (a thread of 100 dynamic segments lying on it). The memory bandwidth of the machine is measured at the start of
-// the run (bandwidth.h) and each row's achieved bytes per second is set against it.
+// 400), thread (a thread of 100 dynamic segments lying on it). The memory bandwidth of the
+// machine is measured at the start of the run (bandwidth.h) and each row's achieved bytes
+// per second is set against it.
 //
 //   bench_throughput --sizes 1,2.5 --variants plain,far-shapes,big-domain
 //   bench_throughput --bandwidth-only --threads 1,2
@@ -126,7 +127,7 @@ struct SceneVariant {
   /// cell into it. Radius 1.5 dx where the pattern leaves room (0.4 of its pitch otherwise:
   /// 0.4 dx at 8000 particles, 1 dx at 125k); one under 0.75 dx reaches the grid as 0.75 dx
   /// thick (PartView::band), like a thread's link. The box falls: each frame the spheres are
-  /// given its free fall (Spheres::follow), as a coupler gives shapes their bodies' motion
+  /// given its free fall (Followers::follow), as a coupler gives shapes their bodies' motion
   /// every tick, so they stay on it, and they sink into it at 0.1 dx/s: falling with the box
   /// alone, nothing approaches them and no node exchanges momentum (measured: impulse 0);
   /// sinking, all 100 push on the box in almost every frame of the run.
@@ -136,7 +137,7 @@ struct SceneVariant {
   /// 100 bodies, each with the four contact passes of a dynamic body per substep (three
   /// measuring), and each band node asking the thread's other segments whether they are
   /// nearer (nearerSegment), as the suturing demo's thread does.
-  struct Spheres {
+  struct Followers {
     std::vector<mpm::ShapeId> ids;
     mpm::CurveId thread;
     std::vector<mpm::Vec3f> points;  ///< the thread's points at time 0 [m]
@@ -160,8 +161,8 @@ struct SceneVariant {
       scene.setCurvePoints(thread, x, std::vector<mpm::Vec3f>(x.size(), velocity));
     }
   };
-  Spheres addManyShapes(mpm::Scene& scene, float halfSize) const {
-    Spheres out;
+  Followers addFollowers(mpm::Scene& scene, float halfSize) const {
+    Followers out;
     if (name == "thread") return addThread(scene, halfSize);
     if (name != "many-shapes" && name != "many-shapes-400") return out;
     const int perSide = name == "many-shapes" ? 10 : 20;
@@ -180,8 +181,8 @@ struct SceneVariant {
   }
   /// The thread: 101 points at equal steps along seven rows along x (0.9 of the half-size
   /// either side) joined at alternate ends, its centre line 0.1 dx below the top face.
-  Spheres addThread(mpm::Scene& scene, float halfSize) const {
-    Spheres out;
+  Followers addThread(mpm::Scene& scene, float halfSize) const {
+    Followers out;
     const float dx = scene.settings().dx, reach = 0.9f * halfSize;
     constexpr int kRows = 7, kSegments = 100;
     const float spacing = 2.f * reach / (float)(kRows - 1), row = 2.f * reach;
@@ -381,9 +382,9 @@ RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
   const mpm::ParticleObjectId box = scene.addParticleObject(row.variant.box(row.halfSize));
   row.variant.addShapes(scene);
   row.variant.addSlicer(scene, row.halfSize);
-  const SceneVariant::Spheres spheres = row.variant.addManyShapes(scene, row.halfSize);
+  const SceneVariant::Followers followers = row.variant.addFollowers(scene, row.halfSize);
   for (int f = 0; f < kWarmupFrames; ++f) {
-    spheres.follow(scene);
+    followers.follow(scene);
     scene.step(CressimBench::kFrameDt);
     progress.update(++framesDone);
   }
@@ -395,7 +396,7 @@ RunSample timeRun(Row& row, double maxOtherLoad, mpm::io::ProgressBar& progress,
   const double busy0 = machineBusySeconds();
   double nextLoadCheck = 1.0;  // [s into the run] /proc/stat is read about once a second
   for (int f = 0; f < row.frames; ++f) {
-    spheres.follow(scene);
+    followers.follow(scene);
     s.substeps += scene.step(CressimBench::kFrameDt).substeps;
     progress.update(++framesDone);
     const double elapsed =

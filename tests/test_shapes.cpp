@@ -424,6 +424,13 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
         reach = std::min(reach, part.boundsGrowth);
         band = std::max(band, std::max(bodies[part.body].band, part.band));
       }
+      // the answer asking every segment: another one nearer, or as near and earlier
+      const auto askingEvery = [&](Vec3f x, int r, float ownR) {
+        Vec3f nrm;
+        for (int q = 0; q < n; ++q)
+          if (q != r && (q < r ? parts[q].distance(x, nrm) <= ownR : parts[q].distance(x, nrm) < ownR)) return true;
+        return false;
+      };
       for (int k = 0; k < 20000; ++k) {
         const int p = k % n;
         // a node near segment p: within two cells of a point along it
@@ -436,9 +443,7 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
         }
         Vec3f nrm;
         const float own = parts[p].distance(x, nrm);
-        bool every = false;  // the answer asking every segment, in nearerSegment's order
-        for (int q = p - 1; q >= 0 && !every; --q) every = parts[q].distance(x, nrm) <= own;
-        for (int q = p + 1; q < n && !every; ++q) every = parts[q].distance(x, nrm) < own;
+        const bool every = askingEvery(x, p, own);
         for (int q = 0; q < n; ++q) skipped += q != p && surelyFartherThan(parts[q], x, own);
         const bool got = nearerSegment(x, parts.data(), n, p, bodies.data(), own);
         ASSERT_EQ(got, every) << "far " << far << (grid ? " grid" : " MTLED") << ", segment " << p << ", node "
@@ -471,10 +476,7 @@ TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
             if (r < 0 || r >= n || !parts[r].mayTouch(x, x)) continue;  // the pass asks only the parts in reach
             const float ownR = parts[r].distance(x, nrm);
             if (banded && !(ownR < band)) continue;  // the pass asks only for nodes in the band
-            bool everyR = false;
-            for (int q = 0; q < n && !everyR; ++q)
-              everyR = q != r && (q < r ? parts[q].distance(x, nrm) <= ownR : parts[q].distance(x, nrm) < ownR);
-            ASSERT_EQ(nearerSegment(x, parts.data(), n, r, bodies.data(), ownR, &near), everyR)
+            ASSERT_EQ(nearerSegment(x, parts.data(), n, r, bodies.data(), ownR, &near), askingEvery(x, r, ownR))
                 << (banded ? "banded" : "listed") << ": far " << far << (grid ? " grid" : " MTLED") << ", segment "
                 << r << " after " << p;
             (banded ? bandedAsked : listedAsked) += ownR < near.reach;

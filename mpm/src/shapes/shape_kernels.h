@@ -34,6 +34,18 @@ MPM_HD bool boxesMeet(Vec3f aLo, Vec3f aHi, Vec3f bLo, Vec3f bHi) {
   return !(aHi.x < bLo.x || aLo.x > bHi.x || aHi.y < bLo.y || aLo.y > bHi.y || aHi.z < bLo.z || aLo.z > bHi.z);
 }
 
+/// The squared distance between boxes a and b (0 where they meet; a NaN bound counts as
+/// meeting, as in boxesMeet).
+MPM_HD float squaredGap(Vec3f aLo, Vec3f aHi, Vec3f bLo, Vec3f bHi) {
+  float d2 = 0.f;
+  for (int a = 0; a < 3; ++a) {
+    const float below = bLo[a] - aHi[a], above = aLo[a] - bHi[a];
+    const float d = below > 0.f ? below : (above > 0.f ? above : 0.f);  // NaN: 0
+    d2 += d * d;
+  }
+  return d2;
+}
+
 /// Rigid motion and contact model of one shape.
 struct BodyView {
   Vec3f com;            ///< centre of mass, world [m]
@@ -298,12 +310,7 @@ constexpr float kGluedReach = 1.f;
 /// both (of the part's box, placed in floats, and of its distance).
 MPM_HD bool surelyFartherThan(const PartView& q, Vec3f x, float phi) {
   if (!q.lipschitzDistance()) return false;
-  float d2 = 0.f;
-  for (int a = 0; a < 3; ++a) {
-    const float below = q.pushLower[a] - x[a], above = x[a] - q.pushUpper[a];
-    const float d = below > 0.f ? below : (above > 0.f ? above : 0.f);  // NaN: 0, never skipped
-    d2 += d * d;
-  }
+  const float d2 = squaredGap(x, x, q.pushLower, q.pushUpper);  // NaN bounds: 0, never skipped
   if (!(d2 > 0.f)) return false;  // x in the box: the part may be nearer than anything
   const float box = sqrtf(d2);
   const float slack = 1e-5f * (fabsf(x.x) + fabsf(x.y) + fabsf(x.z) + fabsf(phi) + box);
@@ -324,14 +331,8 @@ MPM_HD int segmentsWithin(const PartView* parts, const int* listed, int count, c
   int n = 0;
   for (int k = 0; k < count; ++k) {
     const int q = listed[k];
-    if (!segment[q]) continue;
-    float gap2 = 0.f;
-    for (int a = 0; a < 3; ++a) {
-      const float below = parts[q].pushLower[a] - hi[a], above = lo[a] - parts[q].pushUpper[a];
-      const float d = below > 0.f ? below : (above > 0.f ? above : 0.f);  // NaN: 0, kept
-      gap2 += d * d;
-    }
-    if (gap2 < within * within) out[n++] = q;
+    // NaN bounds: a gap of 0, kept
+    if (segment[q] && squaredGap(lo, hi, parts[q].pushLower, parts[q].pushUpper) < within * within) out[n++] = q;
   }
   return n;
 }

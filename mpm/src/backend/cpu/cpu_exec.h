@@ -773,7 +773,7 @@ struct CpuExec {
               near.parts = segments.data();
               near.count = segmentsWithin(parts, nearParts_.data() + begin, (int)(end - begin), segment_.data(), lo, hi,
                                           segmentBand_, segments.data());
-              near.reach = std::min(segmentReach_, segmentBand_);
+              near.reach = segmentReach_;
             }
             NodeContact g;
             for (int c = 0; c < nCandidates; ++c) {
@@ -833,8 +833,9 @@ struct CpuExec {
 
     /// The runs of thread segments among the parts (runFirst_, runLast_: per segment its
     /// run's first and last part, isThreadSegment), which parts are segments (segment_), their
-    /// least bounds growth (segmentReach_) and their widest band (segmentBand_), for
-    /// nearerSegment's lists (NearSegments, segmentsWithin).
+    /// widest band (segmentBand_) and how near a segment off a block's segmentsWithin list
+    /// can lie to its nodes at the least (segmentReach_, NearSegments::reach: the least bounds
+    /// growth, and that band), for nearerSegment's lists.
     void findSegmentRuns(const PartView* parts, int nParts, const BodyView* bodies) {
       runFirst_.resize((size_t)nParts);
       runLast_.resize((size_t)nParts);
@@ -849,6 +850,7 @@ struct CpuExec {
         segmentReach_ = std::min(segmentReach_, parts[p].boundsGrowth);
         segmentBand_ = std::max(segmentBand_, std::max(bodies[parts[p].body].band, parts[p].band));
       }
+      segmentReach_ = std::min(segmentReach_, segmentBand_);
       for (int p = nParts - 1; p >= 0; --p)
         runLast_[p] = isThreadSegment(parts, nParts, p, bodies) && isThreadSegment(parts, nParts, p + 1, bodies)
                           ? runLast_[p + 1] : p;
