@@ -123,7 +123,6 @@ class SceneImpl {
     report.substeps = substeps;
     report.substepDt = dt / substeps;
     const SubstepParams p = substepParams(settings, report.substepDt);
-    backend->sortParticles();
     for (int s = 0; s < substeps; ++s) backend->substep(p);
     time += dt;
     const StepCheck c = backend->takeCheck();
@@ -222,26 +221,29 @@ class SceneImpl {
     if (energy)
       for (size_t i = 0; i < shapes.size(); ++i) before.push_back(shapes[i].state);
     worker.get().submit([this, dt, n, energy, before = std::move(before)] {
-      // a failed advance is undone: what it changes is kept first (the particles' copy
-      // costs a pass over their memory, see the backends' saveState)
+      // a failed advance is undone: what it changes is kept first (the particles' copy is
+      // the pass that sorts them, see the backends' saveStateAndSort; a retry starts from
+      // the copy put back, so keeping it again keeps the same state)
       const Rollback rollback = keep();
-      backend->saveState();
       for (int halvings = 0;; ++halvings) {
+        bool saved = false;
         try {
           if (halvings > 0)  // moved by the failed attempt
             bodies = uploadShapes(shapes, slicers, curves, objects, settings, *backend);
           if (energy && !account.started) account.start(*backend, settings, objects);
+          backend->saveStateAndSort();
+          saved = true;
           StepReport r = run(dt, n << halvings);
           downloadShapes(shapes, slicers, curves, bodies, dt, *backend);
           if (energy) r.energy = account.checkAdvance(*backend, settings, objects, shapes, before, time);
           r.halvings = halvings;
           return r;
         } catch (const SimulationDiverged&) {
-          backend->restoreState();
+          if (saved) backend->restoreState();
           restore(rollback);
           if (!retryWithHalfSubstep(n, halvings)) throw;
         } catch (...) {
-          backend->restoreState();
+          if (saved) backend->restoreState();
           restore(rollback);
           throw;
         }

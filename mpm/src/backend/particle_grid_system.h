@@ -43,6 +43,15 @@ struct Gather {
   MPM_HD void operator()(size_t i) const { out[i] = in[order[i]]; }
 };
 
+/// A part RecordCuts visits (a blade, a curved blade, a needle's tip inside the material)
+/// and its slot among the resisting parts (BladeImpulse), -1 for a curved blade: the
+/// other parts (a thread's segments, the ground) cut nothing, and a suturing scene's
+/// particles had tested every one of them each substep.
+struct Cutter {
+  int part;
+  int blade;
+};
+
 /// Records on every particle beside a blade the cut it lies in, and with `impulses`
 /// (materials with toughness) exchanges the resistance to cutting over the substep between
 /// the particle and each blade: the blade's share summed per particle and blade in
@@ -50,7 +59,8 @@ struct Gather {
 struct RecordCuts {
   ParticleView P;
   const PartView* parts;
-  int nParts;
+  const Cutter* cutters;  ///< the parts that cut or resist, in part order
+  int nCutters;
   const BodyView* bodies;
   const MaterialParams* materials;
   BladeImpulse* impulses;  ///< [blade * P.count + particle]; null: no toughness in the scene
@@ -60,8 +70,9 @@ struct RecordCuts {
   MPM_HD void operator()(size_t i) const {
     const float dx = geo.dx;
     if (push) push[i] = Vec3f{0.f, 0.f, 0.f};
-    for (int b = 0, blade = 0; b < nParts; ++b) {
-      const PartView& part = parts[b];
+    for (int c = 0; c < nCutters; ++c) {
+      const PartView& part = parts[cutters[c].part];
+      const int blade = cutters[c].blade;
       if (part.type == kPartCurvedBlade && part.mayTouch(P.x[i], P.x[i]))
         recordCurvedCut(P.cut[i], P.x[i], part, geo);
       if (part.type == kPartTipInside) {
@@ -77,7 +88,6 @@ struct RecordCuts {
           J.angular += dt * cross(P.x[i] - bodies[part.body].com, f);
           J.presence += dt * presence;
         }
-        ++blade;
         continue;
       }
       if (part.type != kPartBlade) continue;
@@ -93,21 +103,20 @@ struct RecordCuts {
           J.angular += dt * cross(P.x[i] - bodies[part.body].com, f);
         }
       }
-      ++blade;
     }
   }
 };
 
 }  // namespace kernels
 
-/// Exec::kPermuteInPlace: the backend reorders a field in place (CpuExec), so sorting
-/// needs no scratch copy of the widest field; otherwise (GPU) each field is gathered into
-/// a scratch buffer and copied back.
+/// Exec::kGatherByField: the backend gathers a field on one thread (CpuExec::gatherSerial),
+/// so sorting gathers the fields side by side, a field per thread; otherwise (GPU) each
+/// field is one parallel gather.
 template <class Exec, class = void>
-struct PermutesInPlace : std::false_type {};
+struct GathersByField : std::false_type {};
 template <class Exec>
-struct PermutesInPlace<Exec, std::void_t<decltype(Exec::kPermuteInPlace)>>
-    : std::bool_constant<Exec::kPermuteInPlace> {};
+struct GathersByField<Exec, std::void_t<decltype(Exec::kGatherByField)>>
+    : std::bool_constant<Exec::kGatherByField> {};
 
 template <class Exec, class Method>
 class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
@@ -124,9 +133,8 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   name##Saved_.bind(&exec_);
     MPM_PARTICLE_FIELDS(MPM_BIND)
 #undef MPM_BIND
-    scratch_.bind(&exec_);
-    marks_.bind(&exec_);
     bladeImpulses_.bind(&exec_);
+    cutters_.bind(&exec_);
     push_.bind(&exec_);
     materials_.bind(&exec_);
   }
@@ -150,15 +158,41 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     for (const float v : add.volume0) touchReach_ = std::max(touchReach_, v >= 0.f && v < INFINITY ? touchDistance(v) : INFINITY);
   }
 
-  /// A copy of every field on the device: one pass over the particle memory per advance
-  /// and its size again in memory. Measured at 64k particles on the busy 2-core VM: 0.8 ms
-  /// per advance against 12 ms for one MLS-MPM substep.
-  void saveState() override {
-#define MPM_SAVE(type, name)            \
-  name##Saved_.resizeDiscard(count_); \
-  exec_.copyOnDevice(name##Saved_.data(), name##_.data(), count_ * sizeof(type));
+  /// The state kept (restoreState) and the particles ordered by grid block in one pass:
+  /// each field is gathered in block order into its spare copy and the two swap, so the
+  /// copy holds the state as it was and the transfers walk memory in order. Sorting in
+  /// place after a separate copy walked the particle memory twice (permute and copy: 12 %
+  /// of the suturing demo, whose tissue advances one substep per Bullet tick).
+  void saveStateAndSort() override {
+    if (count_ == 0) return;
+    auto t0 = Clock::now();
+    exec_.bin(view(), bins_);
+    const uint32_t* order = bins_.order();
+#define MPM_SAVE(type, name) name##Saved_.resizeDiscard(count_);
     MPM_PARTICLE_FIELDS(MPM_SAVE)
 #undef MPM_SAVE
+    if constexpr (GathersByField<Exec>::value) {
+      // a field per thread at a time: one wake of the team for all of them
+      constexpr int kFields = 0
+#define MPM_COUNT(type, name) +1
+          MPM_PARTICLE_FIELDS(MPM_COUNT);
+#undef MPM_COUNT
+      exec_.forEachTask(kFields, count_, [&](int field, int) {
+        int k = 0;
+#define MPM_GATHER(type, name) \
+  if (field == k++) exec_.gatherSerial(name##Saved_.data(), name##_.data(), order, count_);
+        MPM_PARTICLE_FIELDS(MPM_GATHER)
+#undef MPM_GATHER
+      });
+    } else {
+#define MPM_GATHER(type, name) exec_.forEach(count_, kernels::Gather<type>{name##Saved_.data(), name##_.data(), order});
+      MPM_PARTICLE_FIELDS(MPM_GATHER)
+#undef MPM_GATHER
+    }
+#define MPM_SWAP(type, name) name##_.swap(name##Saved_);
+    MPM_PARTICLE_FIELDS(MPM_SWAP)
+#undef MPM_SWAP
+    timings.sort += seconds(t0);
   }
   void restoreState() override {
 #define MPM_RESTORE(type, name) exec_.copyOnDevice(name##_.data(), name##Saved_.data(), count_ * sizeof(type));
@@ -189,13 +223,22 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
     ShapeBackend<Exec>::setShapes(bodies, parts);
     bladeBodies_.clear();
+    std::vector<kernels::Cutter> cutters;
     blades_ = tips_ = false;
-    for (const PartView& p : parts) {
+    for (size_t i = 0; i < parts.size(); ++i) {
+      const PartView& p = parts[i];
       // the resistance to cutting (quad blades) and to a needle's tip
-      if (p.type == kPartBlade || p.type == kPartTipInside) bladeBodies_.push_back(p.body);
+      if (p.type == kPartBlade || p.type == kPartTipInside) {
+        cutters.push_back({(int)i, (int)bladeBodies_.size()});
+        bladeBodies_.push_back(p.body);
+      } else if (p.type == kPartCurvedBlade) {
+        cutters.push_back({(int)i, -1});
+      }
       blades_ = blades_ || isBlade(p.type);
       tips_ = tips_ || p.type == kPartTipInside;
     }
+    cutters_.resizeDiscard(cutters.size());
+    exec_.copyToDevice(cutters_.data(), cutters.data(), cutters.size() * sizeof(kernels::Cutter));
     everCut_ = everCut_ || blades_;
     // the resistance to cutting and to needles' tips, per particle and blade, summed over
     // the advance
@@ -240,44 +283,6 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     exec_.copyToDevice(materials_.data(), m.data(), m.size() * sizeof(MaterialParams));
   }
 
-  void sortParticles() override {
-    if (count_ == 0) return;
-    auto t0 = Clock::now();
-    exec_.bin(view(), bins_);
-    if constexpr (PermutesInPlace<Exec>::value) {
-      // the fields are reordered side by side, one per thread at a time (each with its own
-      // marks: one bit per particle for the places already filled)
-      constexpr int kFields = 0
-#define MPM_COUNT(type, name) +1
-          MPM_PARTICLE_FIELDS(MPM_COUNT);
-#undef MPM_COUNT
-      const size_t words = (count_ + 63) / 64;
-      marks_.resizeDiscard(words * (size_t)std::min(exec_.threads, kFields));
-      const uint32_t* order = bins_.order();
-      exec_.forEachTask(kFields, count_, [&](int field, int slot) {
-        uint64_t* marks = marks_.data() + (size_t)slot * words;
-        int k = 0;
-#define MPM_PERMUTE(type, name) \
-  if (field == k++) exec_.permuteInPlace(name##_.data(), order, count_, marks);
-        MPM_PARTICLE_FIELDS(MPM_PERMUTE)
-#undef MPM_PERMUTE
-      });
-      timings.sort += seconds(t0);
-      return;
-    }
-    // one scratch buffer of the widest field serves every field in turn
-    scratch_.resizeDiscard(count_ * sizeof(Mat3f));
-#define MPM_PERMUTE(type, name)                                                          \
-  {                                                                                      \
-    type* tmp = reinterpret_cast<type*>(scratch_.data());                                \
-    exec_.forEach(count_, kernels::Gather<type>{tmp, name##_.data(), bins_.order()});   \
-    exec_.copyOnDevice(name##_.data(), tmp, count_ * sizeof(type));                     \
-  }
-    MPM_PARTICLE_FIELDS(MPM_PERMUTE)
-#undef MPM_PERMUTE
-    timings.sort += seconds(t0);
-  }
-
   void substep(const SubstepParams& s) override {
     if (count_ == 0) return;
     walls_ = s.walls;
@@ -319,7 +324,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     if (partCount() == 0) {
       if (resisting) exec_.forEach(count_, kernels::Fill<Vec3f>{push_.data(), Vec3f{0.f, 0.f, 0.f}});
     } else {
-      exec_.forEach(count_, kernels::RecordCuts{view(), parts(), partCount(), shapes_.bodies(), materials_.data(),
+      exec_.forEach(count_, kernels::RecordCuts{view(), parts(), cutters_.data(), (int)cutters_.size(), shapes_.bodies(), materials_.data(),
                                                 resisting ? bladeImpulses_.data() : nullptr,
                                                 resisting ? push_.data() : nullptr, geo_, dt});
     }
@@ -439,7 +444,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = scratch_.bytes() + marks_.bytes() + materials_.bytes() + bladeImpulses_.bytes() + push_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
+    size_t b = materials_.bytes() + bladeImpulses_.bytes() + cutters_.bytes() + push_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
 #define MPM_BYTES(type, name) b += name##_.bytes() + name##Saved_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -472,14 +477,13 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
   bool toughness_ = false;       ///< some material resists cutting (MaterialParams::toughness)
   std::vector<int> bladeBodies_;  ///< the body of each blade part, in part order
+  ExecArray<kernels::Cutter, Exec> cutters_;  ///< the parts recordCuts visits (setShapes)
   ExecArray<BladeImpulse, Exec> bladeImpulses_;
   ExecArray<Vec3f, Exec> push_;  ///< cuttingPush()
   bool tips_ = false;            ///< a needle's tip is inside the material (kPartTipInside)
-#define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveState)
+#define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveStateAndSort)
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER
-  ExecArray<uint8_t, Exec> scratch_;
-  ExecArray<uint64_t, Exec> marks_;
   ExecArray<MaterialParams, Exec> materials_;
 };
 

@@ -76,16 +76,15 @@ class SimBackend {
   /// this material in `slot` (called before append(), so a refused object changes nothing).
   virtual void checkObject(uint32_t /*slot*/, const HostParticles& /*particles*/, const IntegrationCells& /*cells*/,
                            const std::vector<MaterialParams>& /*materials*/) const {}
-  /// Keeps a copy of the state an advance changes (the particles), and puts it back: a
-  /// failed advance is undone with these.
-  virtual void saveState() = 0;
+  /// Keeps a copy of the state an advance changes (the particles) and orders particle
+  /// memory by grid block, so the transfers walk memory in order (the copy keeps the
+  /// order before); restoreState puts the copy back: a failed advance is undone with these.
+  virtual void saveStateAndSort() = 0;
   virtual void restoreState() = 0;
   /// Keeps only the particles whose object slot has keep[slot] != 0.
   virtual void removeObjects(const std::vector<uint8_t>& keep) = 0;
   /// Material table indexed by object slot.
   virtual void setMaterials(const std::vector<MaterialParams>& materials) = 0;
-  /// Orders particle memory by grid block so the transfers walk memory in order.
-  virtual void sortParticles() = 0;
   /// One substep of the scene's solver. Particles whose state is not finite or whose stencil left the
   /// grid are skipped by the transfers (never written out of bounds) and recorded.
   virtual void substep(const SubstepParams& params) = 0;

@@ -29,7 +29,7 @@
 namespace mpm {
 
 /// MTLED's arrays in Exec memory, F(role, type, name) for member name_: the nodes' motion
-/// (state, with saveState()'s copy), the model prepare() builds from the nodes' reference
+/// (state, with saveStateAndSort()'s copy), the model prepare() builds from the nodes' reference
 /// positions, the integration cells and the materials (rebuilt, not stored, by
 /// checkpoints: BackendState), and scratch each substep rewrites.
 #define MPM_MTLED_ARRAYS(F)                                                                   \
@@ -287,10 +287,9 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
     dirty_ = true;  // the critical step depends on the wave speeds
   }
 
-  void sortParticles() override {}  // the nodes' order is the model's; nothing to sort
-
-  /// The nodes' motion, on the device (the model is built first, so there is motion to copy).
-  void saveState() override {
+  /// The nodes' motion, on the device (the model is built first, so there is motion to
+  /// copy); nothing to sort: the nodes' order is the model's.
+  void saveStateAndSort() override {
     prepare();
     copy(xSaved_, x_);
     copy(vSaved_, v_);
@@ -372,7 +371,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
   /// sum over points V_p W(F_p), F_p from the nodes' displacements as the internal force
   /// kernel forms it: the energy whose gradient the forces are (energy balance, section 4.7).
   double integrationPointEnergy(const HostParticles& state) const override {
-    if (dirty_) return 0.0;  // no model to measure with (never in a step: saveState() builds it)
+    if (dirty_) return 0.0;  // no model to measure with (never in a step: saveStateAndSort() builds it)
     double energy = 0;
     for (size_t p = 0; p < model_.volumes.size(); ++p) {
       const Mat3f F = kernels::pointDeformationGradient(p, state.x.data(), reference_.data(), model_.termStart.data(),

@@ -191,31 +191,12 @@ struct CpuExec {
   void copyToHost(void* dst, const void* src, size_t bytes) const { if (bytes) std::memcpy(dst, src, bytes); }
   void copyOnDevice(void* dst, const void* src, size_t bytes) { if (bytes) std::memcpy(dst, src, bytes); }
 
-  /// Sorting reorders each particle field in place (no scratch copy of a field).
-  static constexpr bool kPermuteInPlace = true;
-  /// data[i] <- data[order[i]] for a permutation `order`, in place: follows each cycle of
-  /// the permutation once; `marks` (one bit per element, contents ignored) records the
-  /// places already filled.
+  /// Sorting gathers each particle field on one thread, the fields side by side.
+  static constexpr bool kGatherByField = true;
+  /// out[i] = in[order[i]] on the calling thread (`order` a permutation, out and in apart).
   template <class T>
-  void permuteInPlace(T* data, const uint32_t* order, size_t n, uint64_t* marks) {
-    std::memset(marks, 0, ((n + 63) / 64) * sizeof(uint64_t));
-    for (size_t s = 0; s < n; ++s) {
-      if (marks[s >> 6] & (1ull << (s & 63))) continue;
-      marks[s >> 6] |= 1ull << (s & 63);
-      if (order[s] == s) continue;
-      const T first = data[s];
-      size_t j = s;
-      for (;;) {
-        const size_t k = order[j];
-        if (k == s) {
-          data[j] = first;
-          break;
-        }
-        data[j] = data[k];
-        marks[k >> 6] |= 1ull << (k & 63);
-        j = k;
-      }
-    }
+  static void gatherSerial(T* out, const T* in, const uint32_t* order, size_t n) {
+    for (size_t i = 0; i < n; ++i) out[i] = in[order[i]];
   }
 
   /// f(task, slot) for task in [0, n), tasks handed out one at a time; `slot` (below
