@@ -109,6 +109,14 @@ struct RecordCuts {
 
 }  // namespace kernels
 
+/// Exec::Binning::renumberSorted: the binning made for a sort holds after it (CpuExec), so
+/// the first substep's binParticles keeps it.
+template <class Exec, class = void>
+struct KeepsBinning : std::false_type {};
+template <class Exec>
+struct KeepsBinning<Exec, std::void_t<decltype(std::declval<typename Exec::Binning&>().renumberSorted())>>
+    : std::true_type {};
+
 /// Exec::kGatherByField: the backend gathers a field on one thread (CpuExec::gatherSerial),
 /// so sorting gathers the fields side by side, a field per thread; otherwise (GPU) each
 /// field is one parallel gather.
@@ -140,6 +148,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   }
 
   void append(const HostParticles& add) override {
+    binned_ = false;
     const size_t old = count_, n = count_ + add.size();
 #define MPM_APPEND(type, name)                                                          \
   {                                                                                     \
@@ -192,9 +201,14 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 #define MPM_SWAP(type, name) name##_.swap(name##Saved_);
     MPM_PARTICLE_FIELDS(MPM_SWAP)
 #undef MPM_SWAP
+    if constexpr (KeepsBinning<Exec>::value) {
+      bins_.renumberSorted();
+      binned_ = true;  // a coupler's tissue advancing one substep a tick had binned twice
+    }
     timings.sort += seconds(t0);
   }
   void restoreState() override {
+    binned_ = false;
 #define MPM_RESTORE(type, name) exec_.copyOnDevice(name##_.data(), name##Saved_.data(), count_ * sizeof(type));
     MPM_PARTICLE_FIELDS(MPM_RESTORE)
 #undef MPM_RESTORE
@@ -333,6 +347,10 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 
   /// Bins the particles by grid block and activates the blocks they reach.
   void binParticles() {
+    if (binned_) {  // sorted just now: bins_ is the binning of the positions as they are
+      binned_ = false;
+      return;
+    }
     const auto t0 = Clock::now();
     exec_.bin(view(), bins_);
     timings.sort += seconds(t0);
@@ -473,6 +491,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   bool shapesInReach_ = false;  ///< of the current substep (placeShapes)
   float touchReach_ = 0.f;      ///< the particles' largest touchDistance (append)
   bool centroidsKept_ = false;  ///< the last scatter kept the centroids (MirrorFold)
+  bool binned_ = false;         ///< bins_ holds since the sort (KeepsBinning): binParticles keeps it
   bool blades_ = false;          ///< a slicer's blade is among the parts
   bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
   bool toughness_ = false;       ///< some material resists cutting (MaterialParams::toughness)

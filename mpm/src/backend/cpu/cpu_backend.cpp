@@ -4,6 +4,11 @@
 
 namespace mpm {
 
+// the sort's fast paths (ParticleGridSystem::saveStateAndSort): a trait that stops
+// detecting its member would fall back silently to the GPU's way
+static_assert(GathersByField<CpuExec>::value, "CpuExec gathers a field per thread");
+static_assert(KeepsBinning<CpuExec>::value, "CpuExec keeps the sort's binning for the first substep");
+
 std::unique_ptr<SimBackend> makeCpuBackend(const SceneSettings& settings, const GridGeometry& geo) {
   return makeSolverBackend<CpuExec>(settings, geo, settings.cpuThreads);
 }

@@ -21,6 +21,7 @@
 #include <memory>
 #include <thread>
 #include <new>
+#include <numeric>
 #include <type_traits>
 #include <vector>
 
@@ -887,6 +888,11 @@ struct CpuExec {
              contactAt_.capacity() * sizeof(ContactRun) + (runFirst_.capacity() + runLast_.capacity()) * 4 +
              segment_.capacity();
     }
+
+    /// The particles have just been reordered by this binning's order (the i-th listed now
+    /// sits at i): the binning stays the one of their positions, listed in order, and the
+    /// first substep after the sort need not bin again.
+    void renumberSorted() { std::iota(order_.begin(), order_.end(), 0u); }
 
    private:
     static size_t nBlocks(const GridGeometry& g) {
