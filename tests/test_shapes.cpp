@@ -396,6 +396,70 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
 // reach) and as MTLED does (no margin, no reach), at random nodes around it, inside the
 // capsules and at their joints. The same with the contact pass's lists (NearSegments: only
 // the segments listed near the node's block, the nearest kept for the node's next segment).
+// A needle's arc is asked whether it is surely farther than a distance (the contact pass)
+// and whether a particle surely neither touches nor enters it (the push-out) by the tube
+// round its whole circle (arcLowerDistance), without the angle about it. That bound must
+// never exceed the arc's distance, and the push-out must give the full test's answers
+// exactly: at points near the wire, past its ends, on the missing half of the circle and
+// anywhere in its bounds, for a needle turned and placed near the origin and 40 m away.
+TEST(ShapeContact, ArcLowerDistanceNeverExceedsTheDistance) {
+  const float dx = 2.5e-3f, volume0 = dx * dx * dx / 8.f;
+  std::mt19937 rng(31);
+  std::uniform_real_distribution<float> u(-1.f, 1.f);
+  long long points = 0, skipped = 0, touched = 0, pushed = 0;
+  for (const float far : {0.f, 40.f}) {
+    ArcDesc d;  // the suturing demo's needle: 12 mm, a half circle, wire radius 0.25 mm
+    ShapeState state;
+    state.pose.position = {far + 1e-3f, 0.026f, -2e-3f};
+    const float half = 0.6f;  // turned 1.2 rad about (1, 2, 3)
+    const float axisNorm = std::sqrt(14.f);
+    state.pose.rotation = {std::cos(half), std::sin(half) / axisNorm, 2.f * std::sin(half) / axisNorm,
+                           3.f * std::sin(half) / axisNorm};
+    std::vector<BodyView> bodies;
+    std::vector<PartView> parts;
+    appendNeedle(d, state, false, 0.75f * dx, dx, 0.f, state.pose.position, bodies, parts);
+    PartView& arc = parts[0];
+    ASSERT_EQ(arc.type, kPartArc);
+    placePart(arc, bodies[arc.body], dx, touchDistance(volume0));
+    for (int k = 0; k < 100000; ++k) {
+      // in the arc's frame: about the wire (k % 4 == 0), about the missing half's circle
+      // (1), past the tip's end (2), anywhere in the box round the circle (3)
+      const float a = (k % 4 == 1 ? -1.f : 1.f) * 1.5707964f * (1.f + u(rng)) + (k % 4 == 2 ? 3.1415927f : 0.f);
+      const float r = k % 4 == 3 ? 0.f : d.radius;
+      const float spread = k % 4 == 3 ? d.radius + 3.f * dx : (k % 8 == 0 ? 2.f * d.wireRadius : 2.f * dx);
+      const Vec3f local{r * std::cos(a) + spread * u(rng), r * std::sin(a) + spread * u(rng), spread * u(rng)};
+      Vec3f x = arc.position + arc.rotation * local;
+      Vec3f n;
+      const float phi = arc.distance(x, n);
+      const float lower = arcLowerDistance(arc, x);
+      ASSERT_LE(lower, phi) << "point " << k << " at " << far << " m";
+      // the push-out's answer against the full test's
+      bool beyond = false;
+      if (phi < 0.f) arc.curveTangent(x, beyond);
+      const bool touchFull = withinTouch(phi, volume0);
+      const bool movesFull = phi < 0.f && !beyond;
+      bool touch = false;
+      Vec3f y = x;
+      const bool moved = pushOutOfPart(y, arc, volume0, touch);
+      ASSERT_EQ(touch, touchFull) << "point " << k;
+      ASSERT_EQ(moved, movesFull) << "point " << k;
+      if (moved) {
+        ASSERT_EQ(y.x, x.x - phi * n.x);
+        ASSERT_EQ(y.y, x.y - phi * n.y);
+        ASSERT_EQ(y.z, x.z - phi * n.z);
+      }
+      ++points;
+      skipped += lower > 0.f && !withinTouch(lower, volume0);
+      touched += touchFull;
+      pushed += movesFull;
+    }
+  }
+  std::printf("arc: %lld points, %lld answered by the circle's tube, %lld touching, %lld pushed out\n", points,
+              skipped, touched, pushed);
+  EXPECT_GT(touched, 0);
+  EXPECT_GT(pushed, 0);
+}
+
 TEST(ShapeContact, NearerSegmentSkipsOnlySegmentsThatCannotBeNearer) {
   const float dx = 2e-3f;
   std::mt19937 rng(23);

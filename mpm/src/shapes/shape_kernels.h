@@ -304,11 +304,28 @@ constexpr float kRestingReach = 0.65f;
 /// 4-6 % short of MTLED's, no better on finer grids.
 constexpr float kGluedReach = 1.f;
 
+/// A lower bound of a needle's arc's distance at x (kPartArc) without the angle of x about
+/// it (atan2f, then sinf and cosf: most of the distance's cost): the distance to the tube
+/// round the whole circle, which holds the half-circle wire, less a slack for the rounding
+/// of both. The needle's bounds are the box round its whole circle, so most points they
+/// hold are far from the wire (a needle in a suturing scene's tissue: a fifth of its
+/// particles and nodes are inside).
+MPM_HD float arcLowerDistance(const PartView& q, Vec3f x) {
+  const Vec3f p = transpose(q.rotation) * (x - q.position);
+  const float across = sqrtf(p.x * p.x + p.y * p.y) - q.arcRadius;
+  const float d = sqrtf(across * across + p.z * p.z);
+  const float slack = 1e-5f * (fabsf(x.x) + fabsf(x.y) + fabsf(x.z) + fabsf(p.x) + fabsf(p.y) + fabsf(p.z) +
+                               q.arcRadius + q.radius);
+  return d - q.radius - slack;
+}
+
 /// Whether part `q`'s distance at x (PartView::distance) is surely greater than `phi`,
 /// without taking it: a part with a Euclidean distance lies inside its push-out box, so its
 /// distance at x is at least x's distance to that box; the slack covers the rounding of
-/// both (of the part's box, placed in floats, and of its distance).
+/// both (of the part's box, placed in floats, and of its distance). A needle's arc: its
+/// circle's tube (arcLowerDistance).
 MPM_HD bool surelyFartherThan(const PartView& q, Vec3f x, float phi) {
+  if (q.type == kPartArc) return arcLowerDistance(q, x) > phi;
   if (!q.lipschitzDistance()) return false;
   const float d2 = squaredGap(x, x, q.pushLower, q.pushUpper);  // NaN bounds: 0, never skipped
   if (!(d2 > 0.f)) return false;  // x in the box: the part may be nearer than anything
@@ -460,7 +477,7 @@ MPM_HD bool nodeContactGeometry(Vec3f x, Vec3f xbar, float touchingCell, const P
     // Most nodes within a thread segment's bounds (the grid's margin beyond the band) are
     // beyond the band: one whose distance to the segment's push-out box surely exceeds the
     // band and the shaft friction's reach is out without its distance (on a 100-link thread
-    // lying on a box, four in five of the nodes asked).
+    // lying on a box, four in five of the nodes asked; a needle's arc by its circle's tube).
     if (surelyFartherThan(part, x, fmaxf(fmaxf(b.band, part.band), part.frictionReach - part.radius))) return false;
     const float phi = part.distance(x, n);
     g.inBand = phi < fmaxf(b.band, part.band);
@@ -597,6 +614,10 @@ struct NearParts {
 /// within touchDistance of it (withinTouch, asked only then: cbrtf for every particle was 3 %
 /// of a substep). Returns whether x moved.
 MPM_HD bool pushOutOfPart(Vec3f& x, const PartView& part, float volume0, bool& touch) {
+  if (part.type == kPartArc) {  // surely outside the wire and beyond touch: neither (withinTouch is monotone)
+    const float lower = arcLowerDistance(part, x);
+    if (lower > 0.f && !withinTouch(lower, volume0)) return false;
+  }
   Vec3f n;
   const float phi = part.distance(x, n);
   bool beyond = false;
