@@ -266,7 +266,8 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   std::vector<ContactSums> takeImpulses() override {
     std::vector<ContactSums> out = ShapeBackend<Exec>::takeImpulses();
     if (bladeImpulses_.size() == 0) return out;
-    std::vector<BladeImpulse> all(bladeImpulses_.size());
+    std::vector<BladeImpulse>& all = bladeImpulsesHost_;  // kept: a suturing scene takes them every tick
+    all.resize(bladeImpulses_.size());
     exec_.copyToHost(all.data(), bladeImpulses_.data(), all.size() * sizeof(BladeImpulse));
     for (size_t b = 0; b < bladeBodies_.size(); ++b) {
       double sum[7] = {0, 0, 0, 0, 0, 0, 0};
@@ -286,8 +287,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
       // of the material's presence ahead of it instead (needleTipResistance)
       c.mass += (float)sum[6];
     }
-    exec_.forEach(all.size(), kernels::Fill<BladeImpulse>{bladeImpulses_.data(), BladeImpulse{}});
-    return out;
+    return out;  // setShapes, before every advance, zeroes them again
   }
 
   void setMaterials(const std::vector<MaterialParams>& m) override {
@@ -462,7 +462,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = materials_.bytes() + bladeImpulses_.bytes() + cutters_.bytes() + push_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
+    size_t b = materials_.bytes() + bladeImpulses_.bytes() + bladeImpulsesHost_.capacity() * sizeof(BladeImpulse) + cutters_.bytes() + push_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
 #define MPM_BYTES(type, name) b += name##_.bytes() + name##Saved_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -498,6 +498,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   std::vector<int> bladeBodies_;  ///< the body of each blade part, in part order
   ExecArray<kernels::Cutter, Exec> cutters_;  ///< the parts recordCuts visits (setShapes)
   ExecArray<BladeImpulse, Exec> bladeImpulses_;
+  std::vector<BladeImpulse> bladeImpulsesHost_;  ///< takeImpulses' copy
   ExecArray<Vec3f, Exec> push_;  ///< cuttingPush()
   bool tips_ = false;            ///< a needle's tip is inside the material (kPartTipInside)
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveStateAndSort)
