@@ -12,12 +12,12 @@
 // time, needle force, gap across the wound, thread tension at the needle's eye, wall time)
 // and summary.txt.
 //
-// Status (dx 2.5 mm, 12 s, 240 frames, 822 s on 2 shared cores; MLS-MPM): the tip breaks
-// into block 1 at 1.05 s, the needle goes through both bites (peak force 0.136 N) and draws
+// Status (dx 2.5 mm, 12 s, 240 frames, 166 s on 2 idle cores; MLS-MPM): the tip breaks
+// into block 1 at 1.05 s, the needle goes through both bites (peak force 0.137 N) and draws
 // the thread after it; pulled up over the wound the thread, held by the tissue
-// (ThreadCoupling::addedMass) and its eye pinned within 14 um, draws the gap from 7.25 mm
-// to 1.95 mm at 10.55 s (0.74 N), where the pull stops and holds (2.03 mm at the end, a
-// third being 2.42; README, Suturing). --solver pb advances PB-MPM every 6 ticks
+// (ThreadCoupling::addedMass) and its eye pinned within 12 um (one frame 0.35 mm), draws the
+// gap from 7.25 mm to 1.88 mm at 10.55 s (0.77 N), where the pull stops and holds (1.91 mm at
+// the end; another build's rounding held at 10.20 s on 0.99 N and 2.61 mm; README, Suturing). --solver pb advances PB-MPM every 6 ticks
 // (--tissue-interval); --one-way and --no-added-mass show the couplings without the hold.
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>
