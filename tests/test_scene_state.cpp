@@ -135,34 +135,40 @@ TEST(SceneState, AFailedStepLeavesTheSceneAsBefore) {
 // is tried four times, each from the state the last one put back: the particles kept once
 // the scene starts the advance (and reordered by grid block in the same pass) must still be
 // the state before it at the last failure. The scene then runs on as its twin, which never
-// tried the advance, to the last bit.
+// tried the advance, to the last bit. Twice: with particles crossing blocks, which the
+// advance's sort moves (the copy holds every field), and with every particle in block order
+// already (the copy holds the state fields; the model fields stay where they are).
 TEST(SceneState, AnAdvanceFailingAfterEveryHalvingLeavesNoTrace) {
-  SceneSettings s = settings(SolverType::MlsMpm);
-  s.substeps.fixedSubsteps = 1;
-  s.recovery.enabled = true;
-  s.recovery.maxHalvings = 3;
-  Scene tried(s), twin(s);
-  ParticleObjectDesc thrown = block({0.f, 0.5f, 0.f}, 0.05f);
-  thrown.center = {-0.3f, 0.3f, 0.f};
-  thrown.velocity = {0.f, 1000.f, 0.f};  // 2 m in the advance: out of the grid however it is cut
-  ParticleObjectId good{}, bad{};
-  for (Scene* scene : {&tried, &twin}) {
-    ParticleObjectDesc falling = block({0.1f, 0.5f, 0.f});
-    falling.velocity = {4.f, 0.f, 0.f};  // particles cross blocks each step: the sort moves them
-    good = scene->addParticleObject(falling);
-    for (int i = 0; i < 5; ++i) scene->step(0.002f);
-    bad = scene->addParticleObject(thrown);
+  for (const bool moving : {true, false}) {
+    SCOPED_TRACE(moving ? "particles crossing blocks" : "particles in block order");
+    SceneSettings s = settings(SolverType::MlsMpm);
+    s.substeps.fixedSubsteps = 1;
+    s.recovery.enabled = true;
+    s.recovery.maxHalvings = 3;
+    Scene tried(s), twin(s);
+    // at rest: within one grid block, after the other object's blocks
+    ParticleObjectDesc thrown = block({0.f, 0.5f, 0.f}, moving ? 0.05f : 0.025f);
+    thrown.center = {moving ? -0.3f : 0.25f, 0.3f, 0.f};
+    thrown.velocity = {0.f, 1000.f, 0.f};  // 2 m in the advance: out of the grid however it is cut
+    ParticleObjectId good{}, bad{};
+    for (Scene* scene : {&tried, &twin}) {
+      ParticleObjectDesc other = block({moving ? 0.1f : -0.1f, 0.5f, 0.f});
+      if (moving) other.velocity = {4.f, 0.f, 0.f};  // particles cross blocks each step
+      good = scene->addParticleObject(other);
+      for (int i = 0; i < 5; ++i) scene->step(0.002f);
+      bad = scene->addParticleObject(thrown);
+    }
+    const std::vector<Vec3f> before = positions(tried, good);
+    EXPECT_THROW(tried.step(0.002f), SimulationDiverged);
+    expectSamePositions(positions(tried, good), before);
+    expectSamePositions(positions(tried, bad), positions(twin, bad));
+    for (Scene* scene : {&tried, &twin}) {
+      scene->removeParticleObject(bad);
+      for (int i = 0; i < 5; ++i) scene->step(0.002f);
+    }
+    expectSamePositions(positions(tried, good), positions(twin, good));
+    EXPECT_EQ(tried.time(), twin.time());
   }
-  const std::vector<Vec3f> before = positions(tried, good);
-  EXPECT_THROW(tried.step(0.002f), SimulationDiverged);
-  expectSamePositions(positions(tried, good), before);
-  expectSamePositions(positions(tried, bad), positions(twin, bad));
-  for (Scene* scene : {&tried, &twin}) {
-    scene->removeParticleObject(bad);
-    for (int i = 0; i < 5; ++i) scene->step(0.002f);
-  }
-  expectSamePositions(positions(tried, good), positions(twin, good));
-  EXPECT_EQ(tried.time(), twin.time());
 }
 
 // The step worker hands its error to the caller and keeps no reference to it: the caller

@@ -171,15 +171,17 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// each field is gathered in block order into its spare copy and the two swap, so the
   /// copy holds the state as it was and the transfers walk memory in order. Sorting in
   /// place after a separate copy walked the particle memory twice (permute and copy: 12 %
-  /// of the suturing demo, whose tissue advances one substep per Bullet tick).
+  /// of the suturing demo, whose tissue advances one substep per Bullet tick). Particles
+  /// already in block order (most advances of a substep or two: none crossed a block since
+  /// the last sort) have only their state fields copied, the model fields staying put.
   void saveStateAndSort() override {
     if (count_ == 0) return;
     auto t0 = Clock::now();
     exec_.bin(view(), bins_);
     const uint32_t* order = bins_.order();
-#define MPM_SAVE(type, name) name##Saved_.resizeDiscard(count_);
-    MPM_PARTICLE_FIELDS(MPM_SAVE)
-#undef MPM_SAVE
+    bool inOrder = false;
+    if constexpr (KeepsBinning<Exec>::value) inOrder = bins_.inOrder();
+    modelKept_ = !inOrder;
     if constexpr (GathersByField<Exec>::value) {
       // a field per thread at a time: one wake of the team for all of them
       constexpr int kFields = 0
@@ -188,15 +190,35 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 #undef MPM_COUNT
       exec_.forEachTask(kFields, count_, [&](int field, int) {
         int k = 0;
-#define MPM_GATHER(type, name) \
-  if (field == k++) exec_.gatherSerial(name##Saved_.data(), name##_.data(), order, count_);
-        MPM_PARTICLE_FIELDS(MPM_GATHER)
-#undef MPM_GATHER
+#define MPM_MODEL_GATHER(type, name)                                              \
+  if (field == k++ && !inOrder) {                                                 \
+    name##Saved_.resizeDiscard(count_);                                           \
+    exec_.gatherSerial(name##Saved_.data(), name##_.data(), order, count_);       \
+  }
+#define MPM_STATE_GATHER(type, name)                                                    \
+  if (field == k++) {                                                                   \
+    name##Saved_.resizeDiscard(count_);                                                 \
+    if (inOrder)                                                                        \
+      exec_.copyOnDevice(name##Saved_.data(), name##_.data(), count_ * sizeof(type));   \
+    else                                                                                \
+      exec_.gatherSerial(name##Saved_.data(), name##_.data(), order, count_);           \
+  }
+        MPM_PARTICLE_MODEL_FIELDS(MPM_MODEL_GATHER)
+        MPM_PARTICLE_STATE_FIELDS(MPM_STATE_GATHER)
+#undef MPM_MODEL_GATHER
+#undef MPM_STATE_GATHER
       });
     } else {
-#define MPM_GATHER(type, name) exec_.forEach(count_, kernels::Gather<type>{name##Saved_.data(), name##_.data(), order});
+#define MPM_GATHER(type, name)           \
+  name##Saved_.resizeDiscard(count_); \
+  exec_.forEach(count_, kernels::Gather<type>{name##Saved_.data(), name##_.data(), order});
       MPM_PARTICLE_FIELDS(MPM_GATHER)
 #undef MPM_GATHER
+    }
+    if (inOrder) {  // the copies are the kept state; the state stays where it is
+      binned_ = true;
+      timings.sort += seconds(t0);
+      return;
     }
 #define MPM_SWAP(type, name) name##_.swap(name##Saved_);
     MPM_PARTICLE_FIELDS(MPM_SWAP)
@@ -210,7 +232,10 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void restoreState() override {
     binned_ = false;
 #define MPM_RESTORE(type, name) exec_.copyOnDevice(name##_.data(), name##Saved_.data(), count_ * sizeof(type));
-    MPM_PARTICLE_FIELDS(MPM_RESTORE)
+    MPM_PARTICLE_STATE_FIELDS(MPM_RESTORE)
+    if (modelKept_) {  // else the advance moved no particle: the model fields are as they were
+      MPM_PARTICLE_MODEL_FIELDS(MPM_RESTORE)
+    }
 #undef MPM_RESTORE
   }
 
@@ -492,6 +517,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   float touchReach_ = 0.f;      ///< the particles' largest touchDistance (append)
   bool centroidsKept_ = false;  ///< the last scatter kept the centroids (MirrorFold)
   bool binned_ = false;         ///< bins_ holds since the sort (KeepsBinning): binParticles keeps it
+  bool modelKept_ = false;      ///< saveStateAndSort moved the particles and kept the model fields too
   bool blades_ = false;          ///< a slicer's blade is among the parts
   bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
   bool toughness_ = false;       ///< some material resists cutting (MaterialParams::toughness)

@@ -254,6 +254,7 @@ struct CpuExec {
       if ((int)firstSeen_.size() < team) {
         firstSeen_.resize(team);
         runs_.resize(team);
+        runsInPlace_.resize(team);
       }
       pool.run(team, [&](int t, int nt) {
         const size_t lo = n * t / nt, hi = n * (t + 1) / nt;
@@ -313,12 +314,17 @@ struct CpuExec {
         pool.barrier(nt);
         uint32_t* cursor = cursor_.data() + (size_t)t * occupied_.size();
         uint32_t i = (uint32_t)lo;
+        bool inPlace = true;  // every run lands where its particles are
         for (const BlockRun& r : runs) {
           uint32_t& c = cursor[blockCount_[r.block]];
+          inPlace = inPlace && c == i;
           for (uint32_t q = 0; q < r.count; ++q) order_[c + q] = i++;
           c += r.count;
         }
+        runsInPlace_[t] = inPlace;
       });
+      inOrder_ = true;
+      for (int t = 0; t < team; ++t) inOrder_ = inOrder_ && runsInPlace_[t];
       for (uint32_t b : occupied_) blockCount_[b] = 0;
 
       activate();
@@ -893,6 +899,8 @@ struct CpuExec {
     /// sits at i): the binning stays the one of their positions, listed in order, and the
     /// first substep after the sort need not bin again.
     void renumberSorted() { std::iota(order_.begin(), order_.end(), 0u); }
+    /// Whether the particles sit in this binning's order already (order() is the identity).
+    bool inOrder() const { return inOrder_; }
 
    private:
     static size_t nBlocks(const GridGeometry& g) {
@@ -934,6 +942,8 @@ struct CpuExec {
       uint32_t block, count;
     };
     std::vector<std::vector<BlockRun>> runs_;  ///< per thread: its range as runs
+    std::vector<uint8_t> runsInPlace_;         ///< per thread: its runs land where they are
+    bool inOrder_ = false;                     ///< inOrder()
     std::vector<GridNode> nodes_;
     /// findNearParts: the box a block's list covers, in cells beyond its nodes. A block's
     /// particles lie from 0.5 to 4.5 cells above its first node (their stencil base is in
