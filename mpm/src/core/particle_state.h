@@ -4,7 +4,8 @@
 // change every substep. Allocation, permutation (sorting by grid block), appending,
 // removal, host/device copies, the rollback of a failed advance and checkpoints are all
 // generated from MPM_PARTICLE_FIELDS, the two lists together. The rollback copies the
-// model fields too: the sort at the start of an advance permutes them with the state.
+// model fields too when the sort at the start of an advance moves particles (it permutes
+// them with the state); with every particle in block order already, the state alone.
 #include <cstdint>
 
 #include "mpm/math.h"
