@@ -170,7 +170,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// The state kept (restoreState) and the particles ordered by grid block in one pass:
   /// each field is gathered in block order into its spare copy and the two swap, so the
   /// copy holds the state as it was and the transfers walk memory in order. Sorting in
-  /// place after a separate copy walked the particle memory twice (permute and copy: 12 %
+  /// place after a separate copy walked the particle memory twice (permute and copy: 13 %
   /// of the suturing demo, whose tissue advances one substep per Bullet tick). Particles
   /// already in block order (most advances of a substep or two: none crossed a block since
   /// the last sort) have only their state fields copied, the model fields staying put.
