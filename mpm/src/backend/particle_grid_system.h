@@ -182,6 +182,19 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     bool inOrder = false;
     if constexpr (KeepsBinning<Exec>::value) inOrder = bins_.inOrder();
     modelKept_ = !inOrder;
+    // a field's copy: moved into block order, or as it is when nothing moves (the model
+    // fields then not at all)
+    const auto keep = [&](auto& saved, const auto& field, bool model) {
+      using T = std::remove_pointer_t<decltype(field.data())>;
+      if (inOrder && model) return;
+      saved.resizeDiscard(count_);
+      if (inOrder)
+        exec_.copyOnDevice(saved.data(), field.data(), count_ * sizeof(T));
+      else if constexpr (GathersByField<Exec>::value)  // on the task's own thread
+        exec_.gatherSerial(saved.data(), field.data(), order, count_);
+      else
+        exec_.forEach(count_, kernels::Gather<T>{saved.data(), field.data(), order});
+    };
     if constexpr (GathersByField<Exec>::value) {
       // a field per thread at a time: one wake of the team for all of them
       constexpr int kFields = 0
@@ -190,43 +203,29 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 #undef MPM_COUNT
       exec_.forEachTask(kFields, count_, [&](int field, int) {
         int k = 0;
-#define MPM_MODEL_GATHER(type, name)                                              \
-  if (field == k++ && !inOrder) {                                                 \
-    name##Saved_.resizeDiscard(count_);                                           \
-    exec_.gatherSerial(name##Saved_.data(), name##_.data(), order, count_);       \
-  }
-#define MPM_STATE_GATHER(type, name)                                                    \
-  if (field == k++) {                                                                   \
-    name##Saved_.resizeDiscard(count_);                                                 \
-    if (inOrder)                                                                        \
-      exec_.copyOnDevice(name##Saved_.data(), name##_.data(), count_ * sizeof(type));   \
-    else                                                                                \
-      exec_.gatherSerial(name##Saved_.data(), name##_.data(), order, count_);           \
-  }
-        MPM_PARTICLE_MODEL_FIELDS(MPM_MODEL_GATHER)
-        MPM_PARTICLE_STATE_FIELDS(MPM_STATE_GATHER)
-#undef MPM_MODEL_GATHER
-#undef MPM_STATE_GATHER
+#define MPM_KEEP_MODEL(type, name) if (field == k++) keep(name##Saved_, name##_, true);
+#define MPM_KEEP_STATE(type, name) if (field == k++) keep(name##Saved_, name##_, false);
+        MPM_PARTICLE_MODEL_FIELDS(MPM_KEEP_MODEL)
+        MPM_PARTICLE_STATE_FIELDS(MPM_KEEP_STATE)
+#undef MPM_KEEP_MODEL
+#undef MPM_KEEP_STATE
       });
     } else {
-#define MPM_GATHER(type, name)           \
-  name##Saved_.resizeDiscard(count_); \
-  exec_.forEach(count_, kernels::Gather<type>{name##Saved_.data(), name##_.data(), order});
-      MPM_PARTICLE_FIELDS(MPM_GATHER)
-#undef MPM_GATHER
+#define MPM_KEEP_MODEL(type, name) keep(name##Saved_, name##_, true);
+#define MPM_KEEP_STATE(type, name) keep(name##Saved_, name##_, false);
+      MPM_PARTICLE_MODEL_FIELDS(MPM_KEEP_MODEL)
+      MPM_PARTICLE_STATE_FIELDS(MPM_KEEP_STATE)
+#undef MPM_KEEP_MODEL
+#undef MPM_KEEP_STATE
     }
-    if (inOrder) {  // the copies are the kept state; the state stays where it is
-      binned_ = true;
-      timings.sort += seconds(t0);
-      return;
-    }
+    if (!inOrder) {  // the gathered copies are the state in block order, the fields the kept one
 #define MPM_SWAP(type, name) name##_.swap(name##Saved_);
-    MPM_PARTICLE_FIELDS(MPM_SWAP)
+      MPM_PARTICLE_FIELDS(MPM_SWAP)
 #undef MPM_SWAP
-    if constexpr (KeepsBinning<Exec>::value) {
-      bins_.renumberSorted();
-      binned_ = true;  // a coupler's tissue advancing one substep a tick had binned twice
+      if constexpr (KeepsBinning<Exec>::value) bins_.renumberSorted();
     }
+    // a coupler's tissue advancing one substep a tick had binned twice
+    binned_ = KeepsBinning<Exec>::value;
     timings.sort += seconds(t0);
   }
   void restoreState() override {
