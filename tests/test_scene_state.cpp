@@ -171,6 +171,51 @@ TEST(SceneState, AnAdvanceFailingAfterEveryHalvingLeavesNoTrace) {
   }
 }
 
+// Scene::step runs the advance on the calling thread, advance() on the scene's worker: the
+// same step either way, to the bit, with two threads (the calling thread leads the team),
+// a moving tool, the energy account (which keeps the shapes' states from before the
+// advance) and the reports; then the scene stepped one way goes on stepping the other.
+TEST(SceneState, StepOnTheCallingThreadIsTheWorkersAdvance) {
+  for (const SolverType solver : {SolverType::MlsMpm, SolverType::PbMpm}) {
+    SCOPED_TRACE(solver == SolverType::MlsMpm ? "MLS-MPM" : "PB-MPM");
+    SceneSettings s = settings(solver);
+    s.cpuThreads = 2;
+    s.energyCheck.enabled = true;
+    Scene stepped(s), advanced(s);
+    ParticleObjectId id{};
+    ShapeId tool{};
+    for (Scene* scene : {&stepped, &advanced}) {
+      ParticleObjectDesc b = block({0.f, 0.3f, 0.f}, 0.15f);
+      b.velocity = {0.5f, -1.f, 0.f};
+      id = scene->addParticleObject(b);
+      ShapeDesc d;
+      d.parts = {Geometry::sphere(0.06f)};
+      d.pose.position = {0.f, 0.5f, 0.f};
+      d.linearVelocity = {0.f, -2.f, 0.f};
+      tool = scene->addShape(d);
+    }
+    for (int i = 0; i < 12; ++i) {
+      const StepReport a = stepped.step(1.f / 240);
+      advanced.advance(1.f / 240);
+      const StepReport b = advanced.fetchResults();
+      ASSERT_EQ(a.substeps, b.substeps) << "step " << i;
+      ASSERT_EQ(a.substepDt, b.substepDt);
+      ASSERT_EQ(a.activeBlocks, b.activeBlocks);
+      ASSERT_EQ(a.energy.kinetic, b.energy.kinetic);
+      ASSERT_EQ(a.energy.work, b.energy.work);
+      ASSERT_GT(a.energy.kinetic, 0.0);
+      expectSamePositions(positions(stepped, id), positions(advanced, id));
+      const ShapeImpulse ia = stepped.shapeImpulse(tool), ib = advanced.shapeImpulse(tool);
+      ASSERT_EQ(ia.linear.y, ib.linear.y) << "step " << i;
+    }
+    EXPECT_NE(stepped.shapeImpulse(tool).linear.y, 0.f) << "the tool never touched the block";
+    stepped.advance(1.f / 240);
+    stepped.fetchResults();
+    advanced.step(1.f / 240);
+    expectSamePositions(positions(stepped, id), positions(advanced, id));
+  }
+}
+
 // The step worker hands its error to the caller and keeps no reference to it: the caller
 // reads the exception and destroys it. Run many times so that ThreadSanitizer
 // (scripts/sanitize.sh) sees the interleaving in which the caller is done with the error

@@ -170,7 +170,8 @@ class Scene {
   /// The same advance with the same settings fails again: change the scene (remove or
   /// replace the object named in the error, move a shape) or advance by less.
   StepReport fetchResults();
-  /// advance(dt) followed by fetchResults().
+  /// advance(dt) followed by fetchResults(), run on the calling thread (no hand-off to the
+  /// scene's worker thread and back): the same results, errors and recovery.
   StepReport step(float dt);
 
   /// Longest substep the substep policy allows now [s]: cflNumber dx / (c_p + the fastest

@@ -1,8 +1,8 @@
 // SceneBatch: a few runner threads take the batch's CPU scenes one at a time and step each
-// on its share of the threads. A runner only waits while the scene's own worker
-// (scene/step_worker.h) runs the step, so the OpenMP teams stay those of the scenes'
-// workers and a scene's results are those of its own advance(). CUDA scenes are all
-// started at once: each has its worker thread and its stream (CudaExec).
+// on its share of the threads: Scene::step on the runner, which leads the scene's own
+// thread team (backend/cpu/thread_team.h), so a scene's results are those of its own
+// advance(). CUDA scenes are all started at once: each has its worker thread and its
+// stream (CudaExec).
 #include "mpm/scene_batch.h"
 
 #include <algorithm>
