@@ -2,7 +2,10 @@
 // would have stepped alone, on 1 and 2 batch threads; shapes' impulses and states too.
 // Bad input is refused naming the field and the value, starting nothing.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <csignal>
 #include <cstring>
 #include <memory>
 #include <vector>
@@ -208,6 +211,82 @@ TEST(SceneBatch, BadInputIsRefusedNamingTheFieldAndStartsNothing) {
 
   SceneBatch empty({});
   EXPECT_TRUE(empty.step(kTick).empty());
+}
+
+
+// A process that forks after stepping a batch (Python's multiprocessing does, for data
+// generation): the child has only the forking thread, none of the batch's runners. Its
+// batch must step the scenes there as the parent's does, bit for bit; with the parent's
+// runners it waited for them forever (here the alarm ends it after 60 s).
+TEST(SceneBatch, ForkedChildStepsLikeItsParent) {
+  std::vector<Small> scenes;
+  std::vector<Scene*> all;
+  for (int i = 0; i < 3; ++i) {
+    scenes.push_back(makeScene(i, 1));
+    all.push_back(scenes.back().scene.get());
+  }
+  SceneBatch batch(all, 2);
+  for (int t = 0; t < 3; ++t) batch.step(kTick);  // the runners are working
+
+  int pipeFd[2];
+  ASSERT_EQ(pipe(pipeFd), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    alarm(60);
+    for (int t = 0; t < 3; ++t) batch.step(kTick);
+    const Result r = read(scenes[1]);
+    const ssize_t bytes = (ssize_t)(r.x.size() * sizeof(Vec3f));
+    _exit(write(pipeFd[1], r.x.data(), (size_t)bytes) == bytes ? 0 : 3);
+  }
+  close(pipeFd[1]);
+  for (int t = 0; t < 3; ++t) batch.step(kTick);
+  const Result parent = read(scenes[1]);
+  std::vector<Vec3f> fromChild(parent.x.size());
+  size_t got = 0;
+  char* dst = reinterpret_cast<char*>(fromChild.data());
+  const size_t want = fromChild.size() * sizeof(Vec3f);
+  for (ssize_t r; got < want && (r = ::read(pipeFd[0], dst + got, want - got)) > 0;) got += (size_t)r;
+  close(pipeFd[0]);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_FALSE(WIFSIGNALED(status)) << "the child was killed by signal " << WTERMSIG(status)
+                                    << (WTERMSIG(status) == SIGALRM ? " (the alarm: it hung)" : "");
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  ASSERT_EQ(got, want);
+  EXPECT_EQ(0, std::memcmp(parent.x.data(), fromChild.data(), got));
+}
+
+
+// Forked while a batch step runs (between advance and fetchResults): the scenes are being
+// stepped by the parent's runners, so the child's are half stepped. Its fetchResults says
+// so instead of waiting for runners it does not have; the parent fetches as usual.
+TEST(SceneBatch, ForkedChildRefusesAStepInFlight) {
+  std::vector<Small> scenes;
+  std::vector<Scene*> all;
+  for (int i = 0; i < 4; ++i) {
+    scenes.push_back(makeScene(i, 1));
+    all.push_back(scenes.back().scene.get());
+  }
+  SceneBatch batch(all, 2);
+  batch.advance(kTick);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    alarm(60);
+    try {
+      batch.fetchResults();
+    } catch (const Error& e) {
+      _exit(std::strstr(e.what(), "forked while a step was running") ? 0 : 2);
+    }
+    _exit(1);  // fetched a step it never ran
+  }
+  EXPECT_EQ(batch.fetchResults().size(), 4u);
+  int status = 0;
+  ASSERT_EQ(waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: fetchResults returned, 2: another error";
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "core/per_process.h"
 #include "core/validate.h"
 
 #if defined(_OPENMP)
@@ -47,9 +48,8 @@ class SceneBatchImpl {
     for (size_t i = 0; i < scenes.size(); ++i) (scenes[i]->backend() == Backend::Cuda ? gpu : cpu).push_back(i);
     // at least as many scenes as threads: one thread each, every thread busy; fewer
     // scenes: each gets an equal share (the rest of the division idles)
-    const int runnerCount = (int)std::min<size_t>((size_t)threads, cpu.size());
+    runnerCount = (int)std::min<size_t>((size_t)threads, cpu.size());
     share = runnerCount > 0 ? threads / runnerCount : 1;
-    for (int r = 0; r < runnerCount; ++r) runners.emplace_back([this] { loop(); });
   }
 
   ~SceneBatchImpl() {
@@ -59,12 +59,6 @@ class SceneBatchImpl {
       } catch (...) {  // an error nobody fetched
       }
     }
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      stop = true;
-    }
-    wake.notify_all();
-    for (auto& r : runners) r.join();
   }
 
   void advance(const std::vector<float>& dt) {
@@ -93,17 +87,24 @@ class SceneBatchImpl {
       }
     }
     next = 0;
+    Runners& r = runners.get();
+    while ((int)r.threads.size() < runnerCount) r.threads.emplace_back([this, &r] { loop(r); });
     {
-      std::lock_guard<std::mutex> lock(mutex);
-      busy = (int)runners.size();
-      ++generation;
+      std::lock_guard<std::mutex> lock(r.mutex);
+      r.busy = runnerCount;
+      ++r.generation;
     }
-    wake.notify_all();
+    r.wake.notify_all();
     stepping = true;
   }
 
   std::vector<StepReport> fetch() {
     if (!stepping) return {};
+    if (runners.inherited()) {  // the step ran on the parent's runners: half done, here
+      stepping = false;
+      throw Error("SceneBatch::fetchResults: the process was forked while a step was running; the scenes' "
+                  "state is undefined in the child (fork between fetchResults and the next advance)");
+    }
     wait();
     for (size_t i : gpu) {
       if (!started[i]) continue;
@@ -125,22 +126,43 @@ class SceneBatchImpl {
   std::vector<size_t> failed;
 
  private:
+  /// The runner threads and what they wait on, kept per process (core/per_process.h): a
+  /// forked child has none of the parent's runners, and its copy of their mutex may be held
+  /// by a thread it does not have. Started by the first advance in a process.
+  struct Runners {
+    ~Runners() {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        stop = true;
+      }
+      wake.notify_all();
+      for (std::thread& t : threads) t.join();
+    }
+    std::mutex mutex;
+    std::condition_variable wake, finished;
+    long generation = 0;
+    int busy = 0;  ///< runners still taking scenes this step
+    bool stop = false;
+    std::vector<std::thread> threads;
+  };
+
   void wait() {
-    std::unique_lock<std::mutex> lock(mutex);
-    finished.wait(lock, [this] { return busy == 0; });
+    Runners& r = runners.get();
+    std::unique_lock<std::mutex> lock(r.mutex);
+    r.finished.wait(lock, [&] { return r.busy == 0; });
     stepping = false;
   }
 
   /// Takes scenes until none is left. Which runner steps which scene does not matter:
   /// each scene's result depends on the scene alone.
-  void loop() {
+  void loop(Runners& r) {
     long seen = 0;
     for (;;) {
       {
-        std::unique_lock<std::mutex> lock(mutex);
-        wake.wait(lock, [&] { return stop || generation != seen; });
-        if (stop) return;
-        seen = generation;
+        std::unique_lock<std::mutex> lock(r.mutex);
+        r.wake.wait(lock, [&] { return r.stop || r.generation != seen; });
+        if (r.stop) return;
+        seen = r.generation;
       }
       for (size_t k; (k = next.fetch_add(1)) < cpu.size();) {
         const size_t i = cpu[k];
@@ -157,10 +179,10 @@ class SceneBatchImpl {
         }
       }
       {
-        std::lock_guard<std::mutex> lock(mutex);
-        --busy;
+        std::lock_guard<std::mutex> lock(r.mutex);
+        --r.busy;
       }
-      finished.notify_all();
+      r.finished.notify_all();
     }
   }
 
@@ -170,12 +192,9 @@ class SceneBatchImpl {
   std::vector<StepReport> reports;
   std::vector<std::exception_ptr> errors;
   std::atomic<size_t> next{0};
-  std::mutex mutex;
-  std::condition_variable wake, finished;
-  long generation = 0;
-  int busy = 0;
-  bool stop = false, stepping = false;
-  std::vector<std::thread> runners;  // last: they start after what they use exists
+  int runnerCount = 0;  ///< runner threads: as many as threads, at most one per CPU scene
+  bool stepping = false;
+  PerProcess<Runners> runners;  // last: the runners stop before what they use goes
 };
 
 SceneBatch::SceneBatch(std::vector<Scene*> scenes, int threads)
