@@ -23,6 +23,7 @@
 #include "mpm/scene.h"
 #include "solvers/transfer.h"
 #include "scenes/standard_scenes.h"
+#include "forked_child.h"
 #include "solver_cases.h"
 
 namespace mpm {
@@ -223,35 +224,23 @@ TEST(ThreadTeam, ForkedChildStepsLikeItsParent) {
 
   int pipeFd[2];
   ASSERT_EQ(pipe(pipeFd), 0);
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    alarm(60);
+  const pid_t child = test::forkChild([&] {
     for (int f = 0; f < 3; ++f) scene.step(scenes::CressimBench::kFrameDt);
     std::vector<Vec3f> x;
     scene.readPositions(id, x);
-    const ssize_t bytes = (ssize_t)(x.size() * sizeof(Vec3f));
-    _exit(write(pipeFd[1], x.data(), (size_t)bytes) == bytes ? 0 : 3);
-  }
+    return test::writeAll(pipeFd[1], x);
+  });
+  ASSERT_GE(child, 0);
   close(pipeFd[1]);
   for (int f = 0; f < 3; ++f) scene.step(scenes::CressimBench::kFrameDt);
-  std::vector<Vec3f> parent, fromChild(8000);
+  std::vector<Vec3f> parent;
   scene.readPositions(id, parent);
-  ASSERT_EQ(parent.size(), fromChild.size());
-  size_t got = 0;
-  char* dst = reinterpret_cast<char*>(fromChild.data());
-  for (ssize_t r; got < fromChild.size() * sizeof(Vec3f) &&
-                  (r = read(pipeFd[0], dst + got, fromChild.size() * sizeof(Vec3f) - got)) > 0;)
-    got += (size_t)r;
+  ASSERT_EQ(parent.size(), 8000u);
+  const std::vector<Vec3f> fromChild = test::readAll<Vec3f>(pipeFd[0], parent.size());
   close(pipeFd[0]);
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_FALSE(WIFSIGNALED(status)) << "the child was killed by signal " << WTERMSIG(status)
-                                    << (WTERMSIG(status) == SIGALRM ? " (the alarm: it hung)" : "");
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
-  ASSERT_EQ(got, fromChild.size() * sizeof(Vec3f));
-  EXPECT_EQ(0, std::memcmp(parent.data(), fromChild.data(), got));
+  test::expectChildSucceeded(child);
+  ASSERT_EQ(fromChild.size(), parent.size());
+  EXPECT_EQ(0, std::memcmp(parent.data(), fromChild.data(), parent.size() * sizeof(Vec3f)));
 }
 
 // Forked while a step runs (between advance and fetchResults): the step runs on a thread of
@@ -261,22 +250,12 @@ TEST(ThreadTeam, ForkedChildRefusesAStepInFlight) {
   Scene scene(scenes::CressimBench::settings(Backend::Cpu, 2));
   scene.addParticleObject(scenes::CressimBench::box(1.f));
   scene.advance(scenes::CressimBench::kFrameDt);
-  const pid_t child = fork();
+  const pid_t child = test::forkChild([&] {
+    return test::throwsSaying([&] { scene.fetchResults(); }, "forked while a step was running");
+  });
   ASSERT_GE(child, 0);
-  if (child == 0) {
-    alarm(60);
-    try {
-      scene.fetchResults();
-    } catch (const Error& e) {
-      _exit(std::strstr(e.what(), "forked while a step was running") ? 0 : 2);
-    }
-    _exit(1);  // fetched a step it never ran
-  }
   scene.fetchResults();
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by signal " << WTERMSIG(status);
-  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: fetchResults returned, 2: another error";
+  test::expectChildSucceeded(child, "1: fetchResults returned, 2: another error");
 }
 
 

@@ -2,10 +2,7 @@
 // would have stepped alone, on 1 and 2 batch threads; shapes' impulses and states too.
 // Bad input is refused naming the field and the value, starting nothing.
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <csignal>
 #include <cstring>
 #include <memory>
 #include <vector>
@@ -13,6 +10,7 @@
 #include "mpm/scene.h"
 #include "core/validate.h"
 #include "mpm/scene_batch.h"
+#include "forked_child.h"
 
 namespace mpm {
 namespace {
@@ -107,16 +105,26 @@ std::vector<Result> alone(int cpuThreads) {
   return out;
 }
 
+/// Scenes 0 .. count - 1 (makeScene) and the list a SceneBatch takes.
+struct Batch {
+  std::vector<Small> scenes;
+  std::vector<Scene*> all;
+};
+Batch makeBatch(int count, int cpuThreads = 1) {
+  Batch b;
+  for (int i = 0; i < count; ++i) {
+    b.scenes.push_back(makeScene(i, cpuThreads));
+    b.all.push_back(b.scenes.back().scene.get());
+  }
+  return b;
+}
+
 /// The same scenes in a batch of `threads`; the scenes' own setting is 2 threads, which
 /// the batch overrides while it steps them.
 std::vector<Result> batched(int threads, std::vector<size_t>* substeps = nullptr) {
-  std::vector<Small> scenes;
-  std::vector<Scene*> all;
-  for (int i = 0; i < kScenes; ++i) {
-    scenes.push_back(makeScene(i, 2));
-    all.push_back(scenes.back().scene.get());
-  }
-  SceneBatch batch(all, threads);
+  Batch b = makeBatch(kScenes, 2);
+  const std::vector<Small>& scenes = b.scenes;
+  SceneBatch batch(b.all, threads);
   EXPECT_EQ(batch.threads(), threads);
   for (int t = 0; t < kTicks; ++t) {
     const std::vector<StepReport> reports = batch.step(kTick);
@@ -219,74 +227,40 @@ TEST(SceneBatch, BadInputIsRefusedNamingTheFieldAndStartsNothing) {
 // batch must step the scenes there as the parent's does, bit for bit; with the parent's
 // runners it waited for them forever (here the alarm ends it after 60 s).
 TEST(SceneBatch, ForkedChildStepsLikeItsParent) {
-  std::vector<Small> scenes;
-  std::vector<Scene*> all;
-  for (int i = 0; i < 3; ++i) {
-    scenes.push_back(makeScene(i, 1));
-    all.push_back(scenes.back().scene.get());
-  }
-  SceneBatch batch(all, 2);
+  Batch b = makeBatch(3);
+  SceneBatch batch(b.all, 2);
   for (int t = 0; t < 3; ++t) batch.step(kTick);  // the runners are working
 
   int pipeFd[2];
   ASSERT_EQ(pipe(pipeFd), 0);
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    alarm(60);
+  const pid_t child = test::forkChild([&] {
     for (int t = 0; t < 3; ++t) batch.step(kTick);
-    const Result r = read(scenes[1]);
-    const ssize_t bytes = (ssize_t)(r.x.size() * sizeof(Vec3f));
-    _exit(write(pipeFd[1], r.x.data(), (size_t)bytes) == bytes ? 0 : 3);
-  }
+    return test::writeAll(pipeFd[1], read(b.scenes[1]).x);
+  });
+  ASSERT_GE(child, 0);
   close(pipeFd[1]);
   for (int t = 0; t < 3; ++t) batch.step(kTick);
-  const Result parent = read(scenes[1]);
-  std::vector<Vec3f> fromChild(parent.x.size());
-  size_t got = 0;
-  char* dst = reinterpret_cast<char*>(fromChild.data());
-  const size_t want = fromChild.size() * sizeof(Vec3f);
-  for (ssize_t r; got < want && (r = ::read(pipeFd[0], dst + got, want - got)) > 0;) got += (size_t)r;
+  const Result parent = read(b.scenes[1]);
+  const std::vector<Vec3f> fromChild = test::readAll<Vec3f>(pipeFd[0], parent.x.size());
   close(pipeFd[0]);
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_FALSE(WIFSIGNALED(status)) << "the child was killed by signal " << WTERMSIG(status)
-                                    << (WTERMSIG(status) == SIGALRM ? " (the alarm: it hung)" : "");
-  ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_EQ(WEXITSTATUS(status), 0);
-  ASSERT_EQ(got, want);
-  EXPECT_EQ(0, std::memcmp(parent.x.data(), fromChild.data(), got));
+  test::expectChildSucceeded(child);
+  ASSERT_EQ(fromChild.size(), parent.x.size());
+  EXPECT_EQ(0, std::memcmp(parent.x.data(), fromChild.data(), parent.x.size() * sizeof(Vec3f)));
 }
-
 
 // Forked while a batch step runs (between advance and fetchResults): the scenes are being
 // stepped by the parent's runners, so the child's are half stepped. Its fetchResults says
 // so instead of waiting for runners it does not have; the parent fetches as usual.
 TEST(SceneBatch, ForkedChildRefusesAStepInFlight) {
-  std::vector<Small> scenes;
-  std::vector<Scene*> all;
-  for (int i = 0; i < 4; ++i) {
-    scenes.push_back(makeScene(i, 1));
-    all.push_back(scenes.back().scene.get());
-  }
-  SceneBatch batch(all, 2);
+  Batch b = makeBatch(4);
+  SceneBatch batch(b.all, 2);
   batch.advance(kTick);
-  const pid_t child = fork();
+  const pid_t child = test::forkChild([&] {
+    return test::throwsSaying([&] { batch.fetchResults(); }, "forked while a step was running");
+  });
   ASSERT_GE(child, 0);
-  if (child == 0) {
-    alarm(60);
-    try {
-      batch.fetchResults();
-    } catch (const Error& e) {
-      _exit(std::strstr(e.what(), "forked while a step was running") ? 0 : 2);
-    }
-    _exit(1);  // fetched a step it never ran
-  }
   EXPECT_EQ(batch.fetchResults().size(), 4u);
-  int status = 0;
-  ASSERT_EQ(waitpid(child, &status, 0), child);
-  ASSERT_TRUE(WIFEXITED(status)) << "the child was killed by signal " << WTERMSIG(status);
-  EXPECT_EQ(WEXITSTATUS(status), 0) << "1: fetchResults returned, 2: another error";
+  test::expectChildSucceeded(child, "1: fetchResults returned, 2: another error");
 }
 
 }  // namespace
