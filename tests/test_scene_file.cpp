@@ -8,7 +8,9 @@
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -135,6 +137,54 @@ TEST(SceneFileErrors, MissingMeshFileNamesTheKey) {
   const std::string body = std::string("{") + kDomain +
                            R"(, "bodies": [{"name": "tool", "shape": {"type": "mesh", "file": "../nothing.stl"}}]})";
   EXPECT_EQ(loadError(body).rfind("bodies[0].shape.file = \"../nothing.stl\": no such file (", 0), 0u);
+}
+
+// A mesh object given inline ("vertices", "triangles", as Python's add_object passes numpy
+// arrays) is the same tissue as the same mesh from a file: the particles bit for bit, with
+// the scale applied to both; an inline mesh's bad parts are named at their keys.
+TEST(SceneFile, InlineMeshIsTheSameTissueAsItsFile) {
+  // a box 6 x 8 x 3 cm about its centre, in cm (scale 0.01)
+  const char* vertices = "[[-3, -4, -1.5], [-3, -4, 1.5], [-3, 4, -1.5], [-3, 4, 1.5], [3, -4, -1.5], [3, -4, 1.5], "
+                         "[3, 4, -1.5], [3, 4, 1.5]]";
+  const char* triangles = "[[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6], "
+                          "[0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]]";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "mpm_inline_mesh_test";
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream obj(dir / "box_cm.obj");
+    for (const char* v : {"-3 -4 -1.5", "-3 -4 1.5", "-3 4 -1.5", "-3 4 1.5", "3 -4 -1.5", "3 -4 1.5", "3 4 -1.5",
+                          "3 4 1.5"})
+      obj << "v " << v << "\n";
+    for (const char* f : {"1 2 4", "1 4 3", "5 7 8", "5 8 6", "1 5 6", "1 6 2", "3 4 8", "3 8 7", "1 3 7", "1 7 5",
+                          "2 6 8", "2 8 4"})
+      obj << "f " << f << "\n";
+  }
+  const auto scene = [&](const std::string& mesh) {
+    return std::string(R"({"settings": {"domain": {"lower": [-0.1, 0, -0.1], "upper": [0.1, 0.2, 0.1]}, "dx": 0.01})") +
+           R"(, "objects": [{"name": "block", "primitive": "Mesh", "center": [0, 0.1, 0], )" +
+           R"("mesh": {)" + mesh + R"(, "scale": 0.01}}]})";
+  };
+  const auto fromFile = LoadedScene::fromString(scene(R"("file": "box_cm.obj")"), dir.string());
+  const auto inlined = LoadedScene::fromString(
+      scene(std::string(R"("vertices": )") + vertices + R"(, "triangles": )" + triangles), dir.string());
+  std::vector<mpm::Vec3f> a, b;
+  fromFile->scene().readPositions(fromFile->object("block"), a);
+  inlined->scene().readPositions(inlined->object("block"), b);
+  ASSERT_EQ(a.size(), 1152u);  // 6 x 8 x 3 cells of 1 cm, 8 particles each
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_EQ(0, std::memcmp(a.data(), b.data(), a.size() * sizeof(mpm::Vec3f)));
+  float top = -1.f;
+  for (const mpm::Vec3f& x : b) top = std::max(top, x.y);
+  EXPECT_NEAR(top, 0.1375f, 1e-5f) << "the scale applies: the top particles a quarter cell below 4 cm";
+  std::filesystem::remove_all(dir);
+
+  EXPECT_EQ(loadError(scene(std::string(R"("vertices": )") + vertices + R"(, "triangles": [[0, 1, 8]])")),
+            "objects[0].mesh.triangles[0][2] = 8: must index the vertices (0 to 7)");
+  EXPECT_EQ(loadError(scene(R"("triangles": [[0, 1, 2]])")), "objects[0].mesh.vertices = missing: required");
+  EXPECT_EQ(loadError(scene(std::string(R"("file": "box_cm.obj", "vertices": )") + vertices)),
+            "objects[0].mesh.file = \"box_cm.obj\": give either a file or vertices and triangles, not both");
+  EXPECT_EQ(loadError(scene(R"("vertices": [[0, 0]], "triangles": [[0, 0, 0]])")),
+            "objects[0].mesh.vertices[0] = [0,0]: must be an array of 3 numbers");
 }
 
 TEST(SceneFileErrors, ToolAndThreadErrorsAreRenamedToTheirKeys) {

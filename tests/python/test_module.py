@@ -157,6 +157,23 @@ def test_mesh_shape_pushes_like_its_box():
     assert abs(mesh - box) < 0.01 * box, impulses
 
 
+def test_mesh_tissue_from_arrays_is_its_box():
+    # add_object takes a mesh as numpy arrays ("mesh": {"vertices", "triangles"}) as a scene
+    # file takes them inline: a cube about the block's centre is the block, particle for
+    # particle; a bad index and an open mesh are refused naming the key, adding nothing
+    vertices, triangles = cube_mesh(0.03)
+    box_scene, box = scene_with_block()
+    scene = mb.Scene(settings())
+    desc = dict(block(), primitive="Mesh", mesh={"vertices": vertices, "triangles": triangles})
+    obj = scene.add_object(desc)
+    assert np.array_equal(scene.positions(obj), box_scene.positions(box))
+    raises_invalid("object.mesh.triangles[0][2] = 8: must index the vertices (0 to 7)", scene.add_object,
+                   dict(desc, mesh={"vertices": vertices, "triangles": [[0, 1, 8]]}))
+    with pytest.raises(mb.InvalidArgument, match=r"^object.mesh = not watertight: cannot be filled"):
+        scene.add_object(dict(desc, mesh={"vertices": vertices, "triangles": triangles[:-1]}))
+    assert scene.objects() == [obj]
+
+
 def test_slicers_and_curves():
     scene, obj = scene_with_block(gravity=[0, 0, 0])
     blade = scene.add_quad_slicer(half_length=0.05, width=0.02, position=(0.013, 0.08, -0.007),

@@ -16,20 +16,57 @@ void readMaterial(Node n, Material& m) {
   n.finish();
 }
 
-/// The inside of a mesh file as a signed distance grid of `cellSize` (default dx / 2).
+/// A mesh given inline: "vertices" ([[x, y, z], ...]) and "triangles" ([[i, j, k], ...],
+/// indices into the vertices).
+TriangleMesh readInlineMesh(Node& n) {
+  TriangleMesh mesh;
+  const Json& vertices = n.require("vertices");
+  if (!vertices.is_array() || vertices.empty()) fail(n.at("vertices"), vertices, "must be a non-empty array of [x, y, z]");
+  mesh.vertices.resize(vertices.size());
+  for (size_t i = 0; i < vertices.size(); ++i) parse(vertices[i], element(n.at("vertices"), i), mesh.vertices[i]);
+  const Json& triangles = n.require("triangles");
+  if (!triangles.is_array() || triangles.empty())
+    fail(n.at("triangles"), triangles, "must be a non-empty array of [i, j, k]");
+  for (size_t t = 0; t < triangles.size(); ++t) {
+    const std::string at = element(n.at("triangles"), t);
+    if (!triangles[t].is_array() || triangles[t].size() != 3) fail(at, triangles[t], "must be an array of 3 indices");
+    for (size_t c = 0; c < 3; ++c) {
+      int index = 0;
+      parse(triangles[t][c], element(at, c), index);
+      if (index < 0 || (size_t)index >= mesh.vertices.size())
+        fail(element(at, c), triangles[t][c],
+             "must index the vertices (0 to " + std::to_string(mesh.vertices.size() - 1) + ")");
+      mesh.indices.push_back((uint32_t)index);
+    }
+  }
+  return mesh;
+}
+
+/// The inside of a closed mesh, from a file or given inline (readInlineMesh), as a signed
+/// distance grid of `cellSize` (default dx / 2).
 std::shared_ptr<const SignedDistanceGrid> readMesh(Node n, const std::string& baseDir, float dx) {
-  const std::string file = resolveFile(baseDir, n.require("file"), n.at("file"));
   float scale = 1.f, cellSize = 0.5f * dx;
   n.read("scale", scale);
   n.read("cellSize", cellSize);
-  n.finish();
   if (!(scale > 0.f)) fail(n.at("scale"), scale, "must be > 0");
   if (!(cellSize > 0.f)) fail(n.at("cellSize"), cellSize, "must be > 0");
-  try {
-    return std::make_shared<const SignedDistanceGrid>(buildSignedDistanceGrid(loadTriangleMesh(file, scale), cellSize));
-  } catch (const Error& e) {  // unreadable, no triangles
-    throw InvalidArgument(n.at("file"), show(n.require("file")), e.what());
+  const bool inline_ = n.has("vertices") || n.has("triangles");
+  if (inline_ && n.has("file"))
+    fail(n.at("file"), n.require("file"), "give either a file or vertices and triangles, not both");
+  TriangleMesh mesh;
+  if (inline_) {
+    mesh = readInlineMesh(n);
+    for (Vec3f& v : mesh.vertices) v = scale * v;
+  } else {
+    const std::string file = resolveFile(baseDir, n.require("file"), n.at("file"));
+    try {
+      mesh = loadTriangleMesh(file, scale);
+    } catch (const Error& e) {  // unreadable, no triangles
+      throw InvalidArgument(n.at("file"), show(n.require("file")), e.what());
+    }
   }
+  n.finish();
+  return std::make_shared<const SignedDistanceGrid>(buildSignedDistanceGrid(mesh, cellSize));
 }
 
 }  // namespace
