@@ -213,9 +213,9 @@ class SceneImpl {
 
   /// Checks and uploads what an advance of dt needs; returns the step itself, to run on the
   /// worker (advance) or here (step).
-  auto startStep(float dt, const char* call) {
+  auto startStep(float dt, const char* call, const char* dtField) {
     requireIdle(call);
-    validate::positive(std::string("Scene::") + call + " dt", dt);
+    validate::positive(dtField, dt);
     const int n = substepBounds().substepCount(dt);
     bodies = uploadShapes(shapes, slicers, curves, objects, settings, *backend);
     const bool energy = settings.energyCheck.enabled;
@@ -254,7 +254,7 @@ class SceneImpl {
   }
 
   void advance(float dt) {
-    worker.get().submit(startStep(dt, "advance"));
+    worker.get().submit(startStep(dt, "advance", "Scene::advance dt"));
     stepping = true;
   }
 
@@ -263,7 +263,7 @@ class SceneImpl {
   /// the worker and back was two thread wake-ups; a SceneBatch of 16 scenes on 2 threads,
   /// its runners handing every scene to that scene's worker, kept 1.54 of its 2 cores busy
   /// (2.00 stepping on the runners).
-  StepReport step(float dt) { return startStep(dt, "step")(); }
+  StepReport step(float dt) { return startStep(dt, "step", "Scene::step dt")(); }
 
   /// Whether a diverged advance of n substeps, halved `halvings` times so far, is taken
   /// again with half the substep (SceneSettings::recovery).

@@ -50,22 +50,23 @@ std::shared_ptr<const SignedDistanceGrid> readMesh(Node n, const std::string& ba
   n.read("cellSize", cellSize);
   if (!(scale > 0.f)) fail(n.at("scale"), scale, "must be > 0");
   if (!(cellSize > 0.f)) fail(n.at("cellSize"), cellSize, "must be > 0");
-  const bool inline_ = n.has("vertices") || n.has("triangles");
-  if (inline_ && n.has("file"))
+  const bool given = n.has("vertices") || n.has("triangles");
+  if (given && n.has("file"))
     fail(n.at("file"), n.require("file"), "give either a file or vertices and triangles, not both");
   TriangleMesh mesh;
-  if (inline_) {
+  if (given) {
     mesh = readInlineMesh(n);
+    n.finish();
     for (Vec3f& v : mesh.vertices) v = scale * v;
   } else {
     const std::string file = resolveFile(baseDir, n.require("file"), n.at("file"));
+    n.finish();  // an unknown key before the file is read
     try {
       mesh = loadTriangleMesh(file, scale);
     } catch (const Error& e) {  // unreadable, no triangles
       throw InvalidArgument(n.at("file"), show(n.require("file")), e.what());
     }
   }
-  n.finish();
   return std::make_shared<const SignedDistanceGrid>(buildSignedDistanceGrid(mesh, cellSize));
 }
 

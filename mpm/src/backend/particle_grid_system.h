@@ -195,29 +195,24 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
       else
         exec_.forEach(count_, kernels::Gather<T>{saved.data(), field.data(), order});
     };
-    if constexpr (GathersByField<Exec>::value) {
-      // a field per thread at a time: one wake of the team for all of them
-      constexpr int kFields = 0
+    // field k of the model fields, then the state fields
+    constexpr int kFields = 0
 #define MPM_COUNT(type, name) +1
-          MPM_PARTICLE_FIELDS(MPM_COUNT);
+        MPM_PARTICLE_FIELDS(MPM_COUNT);
 #undef MPM_COUNT
-      exec_.forEachTask(kFields, count_, [&](int field, int) {
-        int k = 0;
+    const auto keepField = [&](int field) {
+      int k = 0;
 #define MPM_KEEP_MODEL(type, name) if (field == k++) keep(name##Saved_, name##_, true);
 #define MPM_KEEP_STATE(type, name) if (field == k++) keep(name##Saved_, name##_, false);
-        MPM_PARTICLE_MODEL_FIELDS(MPM_KEEP_MODEL)
-        MPM_PARTICLE_STATE_FIELDS(MPM_KEEP_STATE)
-#undef MPM_KEEP_MODEL
-#undef MPM_KEEP_STATE
-      });
-    } else {
-#define MPM_KEEP_MODEL(type, name) keep(name##Saved_, name##_, true);
-#define MPM_KEEP_STATE(type, name) keep(name##Saved_, name##_, false);
       MPM_PARTICLE_MODEL_FIELDS(MPM_KEEP_MODEL)
       MPM_PARTICLE_STATE_FIELDS(MPM_KEEP_STATE)
 #undef MPM_KEEP_MODEL
 #undef MPM_KEEP_STATE
-    }
+    };
+    if constexpr (GathersByField<Exec>::value)  // a field per thread at a time: one wake of the team for all
+      exec_.forEachTask(kFields, count_, [&](int field, int) { keepField(field); });
+    else
+      for (int field = 0; field < kFields; ++field) keepField(field);
     if (!inOrder) {  // the gathered copies are the state in block order, the fields the kept one
 #define MPM_SWAP(type, name) name##_.swap(name##Saved_);
       MPM_PARTICLE_FIELDS(MPM_SWAP)

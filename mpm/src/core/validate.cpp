@@ -19,21 +19,21 @@ std::string show(float v) {
 
 std::string show(Vec3f v) { return "(" + show(v.x) + ", " + show(v.y) + ", " + show(v.z) + ")"; }
 
-void finite(const std::string& field, float v) {
-  if (!std::isfinite(v)) throw InvalidArgument(field, show(v), "must be a finite number");
+void finite(std::string_view field, float v) {
+  if (!std::isfinite(v)) throw InvalidArgument(std::string(field), show(v), "must be a finite number");
 }
-void finite(const std::string& field, Vec3f v) {
+void finite(std::string_view field, Vec3f v) {
   if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z))
-    throw InvalidArgument(field, show(v), "every component must be a finite number");
+    throw InvalidArgument(std::string(field), show(v), "every component must be a finite number");
 }
-void positive(const std::string& field, float v) {
+void positive(std::string_view field, float v) {
   finite(field, v);
-  if (!(v > 0.f)) throw InvalidArgument(field, show(v), "must be > 0");
+  if (!(v > 0.f)) throw InvalidArgument(std::string(field), show(v), "must be > 0");
 }
-void positive(const std::string& field, Vec3f v) {
+void positive(std::string_view field, Vec3f v) {
   finite(field, v);
   if (!(v.x > 0.f && v.y > 0.f && v.z > 0.f))
-    throw InvalidArgument(field, show(v), "every component must be > 0");
+    throw InvalidArgument(std::string(field), show(v), "every component must be > 0");
 }
 void atLeast(const std::string& field, int v, int lo) {
   if (v < lo) throw InvalidArgument(field, std::to_string(v), "must be >= " + std::to_string(lo));

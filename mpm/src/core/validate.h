@@ -2,6 +2,7 @@
 // Input checks shared by every public entry point. Each throws InvalidArgument naming the
 // field and the offending value, before anything is changed.
 #include <string>
+#include <string_view>
 
 #include "mpm/error.h"
 #include "mpm/settings.h"
@@ -11,12 +12,13 @@ namespace mpm::validate {
 std::string show(float v);
 std::string show(Vec3f v);
 
-/// Finite number.
-void finite(const std::string& field, float v);
-void finite(const std::string& field, Vec3f v);
+/// Finite number. (`field` as a view: these run on every advance, so its name becomes a
+/// string only for the error.)
+void finite(std::string_view field, float v);
+void finite(std::string_view field, Vec3f v);
 /// Finite and > 0.
-void positive(const std::string& field, float v);
-void positive(const std::string& field, Vec3f v);
+void positive(std::string_view field, float v);
+void positive(std::string_view field, Vec3f v);
 /// Integer >= lo.
 void atLeast(const std::string& field, int v, int lo);
 /// An enum's value is one of its `count` enumerators 0 .. count - 1 (a cast from an int
