@@ -96,8 +96,8 @@ ASAN_EXCLUDE+="|Package\\."                                        # installs an
 # after a multi-threaded fork). Determinism's 1-and-2-thread runs of MLS-MPM and PB-MPM: the
 # transfers on 2 threads (P2G's tile and sum passes with the grid update in the second,
 # PB-MPM's G2P and next P2G in one pass, G2P, binning, contact); 9-11 s each under TSan.
-TSAN_TARGETS=(test_scene_state test_validation test_bullet_coupling test_scene_batch test_determinism)
-TSAN_INCLUDE="^(SceneState|Validation|BulletCouplingErrors)\\."
+TSAN_TARGETS=(test_scene_state test_faults test_validation test_bullet_coupling test_scene_batch test_determinism)
+TSAN_INCLUDE="^(SceneState|Faults|Validation|BulletCouplingErrors)\\."
 TSAN_INCLUDE+="|^SceneBatch\\.(SteppedAloneAfterwards|PerSceneSteps|BadInput)"
 TSAN_INCLUDE+="|^ThreadTeam\\.BarrierSeparatesRounds$"
 TSAN_INCLUDE+="|^AllSolvers/Determinism\\.OneAndTwoThreadsBitIdenticalOver20Frames/(MlsMpm|PbMpm)( |$)"

@@ -41,11 +41,13 @@ class PyScene {
   /// For mpm_bullet.SceneBatch (batch_bindings.cpp), which marks each of its scenes in use
   /// (with the GIL held) before it lets go of the GIL for the step, and clears the marks after.
   Scene& markInUse(const char* call) {
-    if (inUse_) throw Error(std::string(call) + ": another thread is in a call on one of the batch's scenes");
+    if (inUse_) throw StepInProgress(std::string(call) + ": another thread is in a call on one of the batch's scenes");
     inUse_ = true;
     return scene_;
   }
   void clearInUse() { inUse_ = false; }
+  /// Scene::cancel, which any thread may call while another is in a call on the scene.
+  void cancel() { scene_.cancel(); }
 
   /// Marks the scene in use, then lets go of the GIL; scene() is the scene within.
   class Released {
@@ -56,7 +58,7 @@ class PyScene {
    private:
     struct Mark {
       Mark(PyScene& s, const char* call) : s(s) {
-        if (s.inUse_) throw Error(std::string("Scene.") + call + ": another thread is in a call on this scene");
+        if (s.inUse_) throw StepInProgress(std::string("Scene.") + call + ": another thread is in a call on this scene");
         s.inUse_ = true;
       }
       ~Mark() { s.inUse_ = false; }  // after release_ took the GIL back
@@ -69,7 +71,7 @@ class PyScene {
 
  private:
   void refuseWhileInUse() const {
-    if (inUse_) throw Error("mpm_bullet.Scene: another thread is stepping, saving or loading this scene");
+    if (inUse_) throw StepInProgress("mpm_bullet.Scene: another thread is stepping, saving or loading this scene");
   }
   Scene scene_;
   bool inUse_ = false;

@@ -2,7 +2,8 @@
 //   Error (RuntimeError)                  every mpm::Error not named below
 //   InvalidArgument (Error, ValueError)   .field and .value as the C++ exception has them
 //   CheckpointError (Error)               .reason, e.g. "Checksum"
-//   SimulationDiverged, BackendUnavailable (Error)
+//   SimulationDiverged, BackendUnavailable, StepInProgress, AdvanceCancelled (Error)
+//   OutOfMemory (Error, MemoryError)      .allocation and .bytes as the C++ exception has them
 #include "bindings.h"
 
 namespace mpm::python {
@@ -50,6 +51,14 @@ void bindErrors(py::module_& m) {
   static PyObject* diverged = newException(m, "SimulationDiverged", error,
                                            "A step produced a non-finite state; the scene is as before it.");
   static PyObject* backend = newException(m, "BackendUnavailable", error, "The backend asked for cannot run here.");
+  static PyObject* busy = newException(m, "StepInProgress", error,
+                                       "An advance is running: nothing was read or changed; call again after it.");
+  static PyObject* cancelled = newException(m, "AdvanceCancelled", error,
+                                            "cancel() stopped the advance; the scene is as before it.");
+  py::tuple memoryBases = py::make_tuple(py::handle(error), py::handle(PyExc_MemoryError));
+  static PyObject* memory = newException(m, "OutOfMemory", memoryBases.ptr(),
+                                         "Memory ran out; .allocation says for what, .bytes how much (0: unknown). "
+                                         "The scene is as before the call.");
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);
@@ -61,6 +70,12 @@ void bindErrors(py::module_& m) {
       PyErr_SetString(diverged, e.what());
     } catch (const BackendUnavailable& e) {
       PyErr_SetString(backend, e.what());
+    } catch (const StepInProgress& e) {
+      PyErr_SetString(busy, e.what());
+    } catch (const AdvanceCancelled& e) {
+      PyErr_SetString(cancelled, e.what());
+    } catch (const OutOfMemory& e) {
+      raise(memory, e.what(), {{"allocation", e.allocation()}, {"bytes", std::to_string(e.bytes())}});
     } catch (const Error& e) {
       PyErr_SetString(error, e.what());
     }

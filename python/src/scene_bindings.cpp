@@ -130,6 +130,9 @@ void bindScene(py::module_&, SceneClass& c) {
         "Starts advancing by dt [s] on the scene's worker; change nothing until fetch_results().");
   c.def("fetch_results", [](PyScene& s) { return PyScene::Released(s, "fetch_results").scene().fetchResults(); },
         "Waits for the advance; raises its error.");
+  c.def("cancel", [](PyScene& s) { s.cancel(); },
+        "Stops the running advance (from any thread) at its next substep boundary: its fetch_results() or "
+        "step() raises AdvanceCancelled and the scene is as before that advance. Does nothing when none runs.");
 
   // checkpoints
   c.def(

@@ -1,6 +1,7 @@
 #pragma once
 /// Errors reported to the caller. Every public entry point validates its input before it
 /// changes anything, so a rejected call leaves the scene exactly as it was.
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -34,6 +35,40 @@ class BackendUnavailable : public Error {
 /// A step produced a non-finite state, lost particles or (with SceneSettings::energyCheck)
 /// gained energy from nowhere; names the object and particle.
 class SimulationDiverged : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Memory ran out: `allocation()` says what was being allocated, `bytes()` how much (0 when
+/// the allocator did not say). Thrown by a call or an advance, on whichever thread ran out;
+/// the scene is as it was before the call (an advance: before that advance) and steps on
+/// once memory allows.
+class OutOfMemory : public Error {
+ public:
+  OutOfMemory(std::string allocation, size_t bytes)
+      : Error("out of memory: " + allocation +
+              (bytes ? " (" + std::to_string(bytes) + " bytes)" : std::string(" (size not known)"))),
+        allocation_(std::move(allocation)),
+        bytes_(bytes) {}
+  const std::string& allocation() const { return allocation_; }
+  size_t bytes() const { return bytes_; }
+
+ private:
+  std::string allocation_;
+  size_t bytes_;
+};
+
+/// A call that reads or changes what a step writes was made, from any thread, while an
+/// advance runs (between advance() and the return of fetchResults(), or inside step()).
+/// Nothing was read or changed; call again after fetchResults().
+class StepInProgress : public Error {
+ public:
+  using Error::Error;
+};
+
+/// Scene::cancel() stopped the advance at a substep boundary; the scene is as it was
+/// before that advance.
+class AdvanceCancelled : public Error {
  public:
   using Error::Error;
 };

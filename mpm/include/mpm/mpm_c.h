@@ -33,8 +33,11 @@ typedef enum mpm_status {
   MPM_ERROR_SIMULATION_DIVERGED = 3,/* the step was undone; the scene is as before it */
   MPM_ERROR_BACKEND_UNAVAILABLE = 4,/* e.g. MPM_BACKEND_CUDA without a device */
   MPM_ERROR_CHECKPOINT = 5,         /* the file could not be written or read, or was refused */
-  MPM_ERROR_OUT_OF_MEMORY = 6,
-  MPM_ERROR_INTERNAL = 7            /* anything else (a bug: please report the message) */
+  MPM_ERROR_OUT_OF_MEMORY = 6,      /* the message names what and how many bytes; the scene is as before the call */
+  MPM_ERROR_INTERNAL = 7,           /* anything else (a bug: please report the message) */
+  MPM_ERROR_BUSY = 8,               /* an advance is running (on any thread): nothing read or changed; call
+                                       again after mpm_scene_fetch_results */
+  MPM_ERROR_CANCELLED = 9           /* mpm_scene_cancel stopped the advance; the scene is as before it */
 } mpm_status;
 
 /* The message of this thread's last failed call ("" if none). Valid until the next call
@@ -103,6 +106,9 @@ mpm_status mpm_scene_step(mpm_scene* scene, float dt, mpm_step_report* report);
  * and gives its outcome (a divergence shows there). */
 mpm_status mpm_scene_advance(mpm_scene* scene, float dt);
 mpm_status mpm_scene_fetch_results(mpm_scene* scene, mpm_step_report* report);
+/* Stops the running advance at its next substep boundary (from any thread); its fetch or
+ * step then returns MPM_ERROR_CANCELLED with the scene as before that advance. */
+mpm_status mpm_scene_cancel(mpm_scene* scene);
 mpm_status mpm_scene_time(const mpm_scene* scene, double* time);
 
 /* --- many scenes at once (mpm/scene_batch.h): data generation, reinforcement learning --- */

@@ -160,7 +160,8 @@ class Scene {
   /// for dx, naming its youngsModulus).
   void advance(float dt);
   /// Waits for the step started by advance(); rethrows any error it raised (for instance
-  /// SimulationDiverged). Returns immediately if no step is running.
+  /// SimulationDiverged, OutOfMemory, AdvanceCancelled). Returns immediately if no step is
+  /// running.
   /// With SceneSettings::recovery, a diverging advance is first retried with halved
   /// substeps (StepReport::halvings); it throws once those are spent.
   /// After a failed step the scene is as it was before that advance(): time, particles
@@ -173,6 +174,11 @@ class Scene {
   /// advance(dt) followed by fetchResults(), run on the calling thread (no hand-off to the
   /// scene's worker thread and back): the same results, errors and recovery.
   StepReport step(float dt);
+  /// Asks the advance that is running (advance() or step()) to stop at its next substep
+  /// boundary: its fetchResults() (or step()) then throws AdvanceCancelled and the scene is
+  /// as it was before that advance, as after any failed advance. Callable from any thread
+  /// at any time; with no advance running it does nothing (the next advance starts anew).
+  void cancel();
 
   /// Longest substep the substep policy allows now [s]: cflNumber dx / (c_p + the fastest
   /// particle or shape) (SubstepPolicy::cflFor: the solver's default when cflNumber is 0),
@@ -181,8 +187,12 @@ class Scene {
   /// substeps unless fixedSubsteps is set. Not during a step.
   float maxSubstep();
 
-  /// Simulated time since creation [s]. Not during a step (throws Error, as every call
-  /// that reads or changes what a step writes, until fetchResults()).
+  /// Simulated time since creation [s]. Not during a step: from the advance() until its
+  /// fetchResults() returns (or inside step()), every call that reads or changes what a
+  /// step writes throws StepInProgress, changing nothing, whatever thread it comes from.
+  /// Calls from other threads between steps each see one whole state: they hold the
+  /// scene while they read, and an advance() waits for them to finish. advance,
+  /// fetchResults and step themselves are made from one thread at a time.
   double time() const;
   /// The backend actually in use (never Auto).
   Backend backend() const;

@@ -49,6 +49,8 @@ void forEachField(S& s, Visitor&& v) {
   v("SceneSettings.energyCheck.enabled", s.energyCheck.enabled, M);
   v("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance, M);
   v("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed, M);
+  v("SceneSettings.divergenceCheck.enabled", s.divergenceCheck.enabled, E);
+  v("SceneSettings.divergenceCheck.maxCellsPerSubstep", s.divergenceCheck.maxCellsPerSubstep, E);
   v("SceneSettings.recovery.enabled", s.recovery.enabled, M);
   v("SceneSettings.recovery.maxHalvings", s.recovery.maxHalvings, M);
   v("SceneSettings.backend", s.backend, E);
@@ -64,10 +66,11 @@ struct Pb { int iterations; float relaxation, rigidity; };
 struct Mtled { int supportNodes; float supportScale, integrationCellsPerSpacing; bool smoothedStrain; float timeStepSafety; };
 struct Substeps { float cflNumber; int fixedSubsteps; };
 struct Energy { bool enabled; float tolerance, noiseSpeed; };
+struct Diverge { bool enabled; float maxCellsPerSubstep; };
 struct Recover { bool enabled; int maxHalvings; };
 struct Scene {
   DomainSettings domain; float dx; Vec3f gravity; SolverType solver; StandardMpmSettings standardMpm;
-  PbMpmSettings pbMpm; MtledSettings mtled; SubstepPolicy substeps; EnergyCheck energyCheck; Recovery recovery;
+  PbMpmSettings pbMpm; MtledSettings mtled; SubstepPolicy substeps; EnergyCheck energyCheck; DivergenceCheck divergenceCheck; Recovery recovery;
   Backend backend;
   int cpuThreads;
 };
@@ -78,6 +81,7 @@ static_assert(sizeof(PbMpmSettings) == sizeof(settings_layout::Pb), "PbMpmSettin
 static_assert(sizeof(MtledSettings) == sizeof(settings_layout::Mtled), "MtledSettings changed: update forEachField");
 static_assert(sizeof(SubstepPolicy) == sizeof(settings_layout::Substeps), "SubstepPolicy changed: update forEachField");
 static_assert(sizeof(EnergyCheck) == sizeof(settings_layout::Energy), "EnergyCheck changed: update forEachField");
+static_assert(sizeof(DivergenceCheck) == sizeof(settings_layout::Diverge), "DivergenceCheck changed: update forEachField");
 static_assert(sizeof(Recovery) == sizeof(settings_layout::Recover), "Recovery changed: update forEachField");
 static_assert(sizeof(SceneSettings) == sizeof(settings_layout::Scene), "SceneSettings changed: update forEachField");
 

@@ -182,12 +182,30 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     bool inOrder = false;
     if constexpr (KeepsBinning<Exec>::value) inOrder = bins_.inOrder();
     modelKept_ = !inOrder;
+    // the copies' memory first, here on the calling thread: running out is then an error
+    // before anything moved, not an exception in one of the team's tasks halfway through
+    size_t bytes = 0;
+#define MPM_BYTES(type, name) bytes += count_ * sizeof(type);
+    MPM_PARTICLE_STATE_FIELDS(MPM_BYTES)
+    if (!inOrder) {
+      MPM_PARTICLE_MODEL_FIELDS(MPM_BYTES)
+    }
+#undef MPM_BYTES
+    try {
+#define MPM_RESERVE(type, name) name##Saved_.resizeDiscard(count_);
+      MPM_PARTICLE_STATE_FIELDS(MPM_RESERVE)
+      if (!inOrder) {
+        MPM_PARTICLE_MODEL_FIELDS(MPM_RESERVE)
+      }
+#undef MPM_RESERVE
+    } catch (const OutOfMemory&) {
+      throw OutOfMemory("the copy of " + std::to_string(count_) + " particles' state kept to undo the advance", bytes);
+    }
     // a field's copy: moved into block order, or as it is when nothing moves (the model
     // fields then not at all)
     const auto keep = [&](auto& saved, const auto& field, bool model) {
       using T = std::remove_pointer_t<decltype(field.data())>;
       if (inOrder && model) return;
-      saved.resizeDiscard(count_);
       if (inOrder)
         exec_.copyOnDevice(saved.data(), field.data(), count_ * sizeof(T));
       else if constexpr (GathersByField<Exec>::value)  // on the task's own thread

@@ -54,8 +54,14 @@ mpm_status guarded(const char* call, F&& body) noexcept {
     return fail(call, MPM_ERROR_BACKEND_UNAVAILABLE, e.what());
   } catch (const mpm::CheckpointError& e) {
     return fail(call, MPM_ERROR_CHECKPOINT, e.what());
+  } catch (const mpm::OutOfMemory& e) {
+    return fail(call, MPM_ERROR_OUT_OF_MEMORY, e.what());
   } catch (const std::bad_alloc&) {
     return fail(call, MPM_ERROR_OUT_OF_MEMORY, "out of memory");
+  } catch (const mpm::StepInProgress& e) {
+    return fail(call, MPM_ERROR_BUSY, e.what());
+  } catch (const mpm::AdvanceCancelled& e) {
+    return fail(call, MPM_ERROR_CANCELLED, e.what());
   } catch (const std::exception& e) {
     return fail(call, MPM_ERROR_INTERNAL, e.what());
   } catch (...) {
@@ -271,6 +277,10 @@ mpm_status mpm_scene_step(mpm_scene* scene, float dt, mpm_step_report* out) {
 
 mpm_status mpm_scene_advance(mpm_scene* scene, float dt) {
   return guarded("mpm_scene_advance", [&] { need(scene, "scene").scene.advance(dt); });
+}
+
+mpm_status mpm_scene_cancel(mpm_scene* scene) {
+  return guarded("mpm_scene_cancel", [&] { need(scene, "scene").scene.cancel(); });
 }
 
 mpm_status mpm_scene_fetch_results(mpm_scene* scene, mpm_step_report* out) {

@@ -27,7 +27,9 @@ struct SubstepParams {
 /// Result of the per-particle checks that run inside G2P.
 struct StepCheck {
   float maxSpeed2 = 0;                      ///< largest |v|^2 after the substep [m^2/s^2]
-  uint32_t firstBadParticle = 0xffffffffu;  ///< lowest index of a non-finite or escaped particle
+  /// lowest index of a particle not finite, escaped or with J out of bounds (volumeRatioSound)
+  uint32_t firstBadParticle = 0xffffffffu;
+  float peakSpeed2 = 0;  ///< largest |v|^2 of any substep of the advance (takeCheck) [m^2/s^2]
 };
 
 }  // namespace mpm

@@ -96,6 +96,7 @@ void sceneSettings(const SceneSettings& s) {
     throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
                           "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");
   atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
+  positive("SceneSettings.divergenceCheck.maxCellsPerSubstep", s.divergenceCheck.maxCellsPerSubstep);
   positive("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance);
   finite("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed);
   if (s.energyCheck.noiseSpeed < 0.f)

@@ -357,6 +357,7 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
       }
       c.maxSpeed2 = std::max(c.maxSpeed2, dot(v[i], v[i]));
     }
+    c.peakSpeed2 = c.maxSpeed2;
     return c;
   }
 

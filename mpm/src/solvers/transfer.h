@@ -5,6 +5,7 @@
 // this folder are compositions of these pieces; none of them repeats one.
 #include <type_traits>
 
+#include "mpm/settings.h"
 #include "core/particle_state.h"
 #include "core/substep.h"
 #include "grid/block_grid.h"
@@ -215,12 +216,23 @@ MPM_HD T stateSum(const T x[3], const T v[3], const T F[9]) {
   return x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + (F[0] + F[4] + F[8]);
 }
 
+/// Whether volume ratio J = det F is where material can be (kMinVolumeRatio, kMaxVolumeRatio,
+/// mpm/settings.h), in any float type T: false for NaN too. The determinant by the rule
+/// of Sarrus on the rows, so the CPU's lanes compute what this does.
+template <class T>
+MPM_HD auto volumeRatioSound(const T F[9]) {
+  const T J = F[0] * (F[4] * F[8] - F[5] * F[7]) - F[1] * (F[3] * F[8] - F[5] * F[6]) +
+              F[2] * (F[3] * F[7] - F[4] * F[6]);
+  return (J > kMinVolumeRatio) & (J < kMaxVolumeRatio);
+}
+
 MPM_HD StepCheck finishParticle(uint32_t p, const ParticleView& P, const GridGeometry& geo, const PartView* parts,
                                 int nParts, const NearParts& near) {
   StepCheck c;
   const Vec3f x = P.x[p], v = P.v[p];
-  const float sum = stateSum(&x.x, &v.x, &P.F[p].m[0][0]);
-  if (!isFinite(sum) || !geo.stencilInside(x)) c.firstBadParticle = p;
+  const float* F = &P.F[p].m[0][0];
+  const float sum = stateSum(&x.x, &v.x, F);
+  if (!isFinite(sum) || !geo.stencilInside(x) || !volumeRatioSound(F)) c.firstBadParticle = p;
   P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, P.volume0[p], near) ? 1.f : 0.f;
   c.maxSpeed2 = dot(v, v);
   return c;

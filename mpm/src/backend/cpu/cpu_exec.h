@@ -184,7 +184,7 @@ struct CpuExec {
   T* allocate(size_t n) {
     const size_t bytes = ((n * sizeof(T) + 63) / 64) * 64;
     void* p = std::aligned_alloc(64, bytes);
-    if (!p) throw std::bad_alloc();
+    if (!p) throw OutOfMemory("host memory for " + std::to_string(n) + " elements of " + std::to_string(sizeof(T)) + " bytes", bytes);
     return static_cast<T*>(p);
   }
   void release(void* p) { std::free(p); }
@@ -221,6 +221,7 @@ struct CpuExec {
   StepCheck takeCheck() {
     const StepCheck c = check_;
     check_.firstBadParticle = 0xffffffffu;
+    check_.peakSpeed2 = 0.f;
     return c;
   }
   StepCheck check_;
@@ -1073,6 +1074,7 @@ struct CpuExec {
   void keepCheck(const StepCheck& c) {
     // the speed that matters for the next substep count is the latest one
     check_.maxSpeed2 = c.maxSpeed2;
+    check_.peakSpeed2 = std::max(check_.peakSpeed2, c.maxSpeed2);
     check_.firstBadParticle = std::min(check_.firstBadParticle, c.firstBadParticle);
   }
 };

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -33,6 +34,11 @@ class ThreadTeam {
 
   /// f(t, nt) on nt threads, t = 0 on the caller; returns when every call has returned.
   /// One run at a time per team (the scene's step is single-threaded outside its loops).
+  /// What a call throws (std::bad_alloc from a worker's allocation, say) is rethrown here,
+  /// on the caller, once every member has left the job: a member waiting at a barrier for
+  /// the one that threw leaves it too. A worker that let an exception out of its thread
+  /// would end the process; a caller that let it out at once would leave the workers on
+  /// the job's stack frame.
   template <class F>
   void run(int nt, const F& f) {
     if (nt <= 1) {
@@ -44,14 +50,22 @@ class ThreadTeam {
     c.job = &f;
     c.call = [](const void* job, int t, int n) { (*static_cast<const F*>(job))(t, n); };
     c.members = nt;
+    c.failure = nullptr;
+    c.failed.store(false);
     c.done.store(0);
     c.generation.fetch_add(1);  // publishes the job to the workers
     c.wake();
-    f(0, nt);
+    c.member(0, nt);
     // every worker reports, members or not, so none can still be reading this job when
     // the next run publishes its own
     const int workers = (int)c.workers.size();
     c.waitUntil([&] { return c.done.load() == workers; });
+    if (c.failed.load()) {
+      c.arrived.store(0);  // a barrier the members left when the job failed
+      std::exception_ptr e = std::move(c.failure);
+      c.failure = nullptr;
+      std::rethrow_exception(e);
+    }
   }
 
   /// Inside run: returns once all nt members have called it (a sense-reversing barrier).
@@ -71,7 +85,11 @@ class ThreadTeam {
       wake();
       for (std::thread& w : workers) w.join();
     }
+    /// Thrown at a barrier whose job another member has failed: unwinds this member.
+    struct Abandoned {};
+
     void barrier(int nt) {
+      if (failed.load()) throw Abandoned{};
       const uint64_t round = barrierRound.load();
       if (arrived.fetch_add(1) == nt - 1) {
         arrived.store(0);
@@ -79,7 +97,22 @@ class ThreadTeam {
         wake();
         return;
       }
-      waitUntil([&] { return barrierRound.load() != round; });
+      waitUntil([&] { return barrierRound.load() != round || failed.load(); });
+      if (barrierRound.load() == round) throw Abandoned{};
+    }
+    /// Member t's share of the job; the first exception any member throws is kept for run.
+    void member(int t, int n) {
+      try {
+        call(job, t, n);
+      } catch (const Abandoned&) {
+      } catch (...) {
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          if (!failure) failure = std::current_exception();
+        }
+        failed.store(true);
+        wake();  // members asleep at a barrier
+      }
     }
     template <class Ready>
     void waitUntil(const Ready& ready) {
@@ -121,7 +154,7 @@ class ThreadTeam {
           std::lock_guard<std::mutex> lock(mutex);
           if (stop) return;
         }
-        if (index < members) call(job, index, members);
+        if (index < members) member(index, members);
         done.fetch_add(1);
         wake();
       }
@@ -135,6 +168,8 @@ class ThreadTeam {
     std::atomic<int> done{0};
     std::atomic<int> arrived{0};
     std::atomic<uint64_t> barrierRound{0};
+    std::atomic<bool> failed{false};
+    std::exception_ptr failure;  ///< under mutex while the job runs
     const void* job = nullptr;
     void (*call)(const void*, int, int) = nullptr;
     int members = 0;

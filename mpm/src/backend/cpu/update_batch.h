@@ -93,7 +93,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
       simd::loadMat3Lanes(P.F, id, lanes, Mat3f::identity(), F);
       for (int a = 0; a < 3; ++a) x[a] = x[a] + dt * v[a];
       advanceDeformation(C, dt, F);
-      // finishParticle's check: state finite, stencil on the grid (stencilInside)
+      // finishParticle's check: state finite, stencil on the grid (stencilInside), J sound
       const Floats sum = stateSum(x, v, F);
       Mask inside = sum - sum == 0.f;
       for (int a = 0; a < 3; ++a) {
@@ -102,7 +102,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
         for (int l = 0; l < kLanes; ++l) t[l] = __builtin_fmaf(d[l], geo.invDx, -0.5f);
         inside &= (t >= 0.f) & (t < (float)(geo.cells[a] - 1));
       }
-      bad = ~inside;
+      bad = ~(inside & volumeRatioSound(F));
     } else {
       const Floats s = speed2 + (C[0] + C[4] + C[8]);
       bad = ~(s - s == 0.f);

@@ -25,7 +25,11 @@
 
 namespace mpm {
 
-inline void cudaCheck(cudaError_t e, const char* what) {
+inline void cudaCheck(cudaError_t e, const char* what, size_t bytes = 0) {
+  if (e == cudaErrorMemoryAllocation) {
+    cudaGetLastError();  // not sticky: clear it, so the scene steps on once memory allows
+    throw OutOfMemory(std::string("CUDA device memory (") + what + ")", bytes);
+  }
   if (e != cudaSuccess)
     throw Error(std::string("CUDA backend: ") + what + " failed: " + cudaGetErrorString(e));
 }
@@ -92,7 +96,7 @@ class ScratchAllocator {
       free_.erase(it);
       return p;
     }
-    cudaCheck(cudaMalloc(&p, bytes), "cudaMalloc(thrust scratch)");
+    cudaCheck(cudaMalloc(&p, bytes), "cudaMalloc(thrust scratch)", bytes);
     used_.emplace(p, bytes);
     return p;
   }
@@ -145,7 +149,7 @@ struct CudaExec {
   template <class T>
   T* allocate(size_t n) {
     void* p = nullptr;
-    cudaCheck(cudaMalloc(&p, n * sizeof(T)), "cudaMalloc");
+    cudaCheck(cudaMalloc(&p, n * sizeof(T)), "cudaMalloc", n * sizeof(T));
     return static_cast<T*>(p);
   }
   void release(void* p) { cudaFree(p); }
@@ -185,7 +189,8 @@ struct CudaExec {
     float speed2;
     static_assert(sizeof(speed2) == sizeof(h[0]), "float is 32 bits");
     memcpy(&speed2, &h[0], sizeof speed2);
-    c.maxSpeed2 = speed2;
+    c.maxSpeed2 = speed2;  // the device's maximum runs over the whole advance
+    c.peakSpeed2 = speed2;
     c.firstBadParticle = h[1];
     return c;
   }
