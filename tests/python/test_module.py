@@ -224,3 +224,38 @@ def test_step_releases_the_gil():
     if inside:
         assert refused == "mpm_bullet.Scene: another thread is stepping, saving or loading this scene"
     assert scene.positions(obj).shape == (216, 3)  # and once it is done, it answers
+
+
+def test_cancel_from_another_thread_undoes_the_advance():
+    # cancel() from a second thread stops a long advance at a substep boundary: step()
+    # raises AdvanceCancelled and the scene is as before it; a read while it runs is
+    # refused with StepInProgress (an Error), never a half-written frame
+    scene, obj = scene_with_block(substeps={"fixedSubsteps": 1000000})
+    before = scene.positions(obj).copy()
+    outcome = {}
+
+    def work():
+        try:
+            scene.step(1.0)
+            outcome["result"] = "ran"
+        except mb.AdvanceCancelled as e:
+            outcome["result"] = str(e)
+
+    t = threading.Thread(target=work)
+    t.start()
+    refused = None
+    while refused is None and t.is_alive():
+        try:
+            scene.positions(obj)
+        except mb.StepInProgress as e:
+            refused = e
+    for _ in range(1200):  # again until it ends: a cancel before the advance began stops nothing
+        scene.cancel()
+        t.join(timeout=0.05)
+        if not t.is_alive():
+            break
+    assert not t.is_alive()
+    assert "substeps" in outcome["result"], outcome
+    assert isinstance(refused, mb.Error)
+    assert np.array_equal(scene.positions(obj), before)
+    assert scene.time == 0.0

@@ -25,6 +25,7 @@
 #include "backend/shape_set.h"
 #include "backend/sim_backend.h"
 #include "core/constitutive.h"
+#include "solvers/transfer.h"
 
 namespace mpm {
 
@@ -358,6 +359,17 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
       c.maxSpeed2 = std::max(c.maxSpeed2, dot(v[i], v[i]));
     }
     c.peakSpeed2 = c.maxSpeed2;
+    // the volume ratio where F lives, at the integration points: a point out of bounds
+    // flags the first node its strain depends on (SceneSettings.divergenceCheck)
+    if (c.firstBadParticle == 0xffffffffu)
+      for (size_t p = 0; p < model_.volumes.size(); ++p) {
+        const Mat3f F = kernels::pointDeformationGradient(p, x.data(), reference_.data(), model_.termStart.data(),
+                                                          model_.support.data(), model_.shapeGradients.data());
+        if (!volumeRatioSound(&F.m[0][0])) {
+          c.firstBadParticle = model_.support[model_.termStart[p]];
+          break;
+        }
+      }
     return c;
   }
 
