@@ -106,6 +106,17 @@ TEST(Validation, GravityAndSubstepPolicyMustBeFinite) {
   expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "-3");
 }
 
+// No more fixed substeps than an advance may take (SubstepPolicy::kMaxSubsteps, 1e7).
+TEST(Validation, FixedSubstepsAreBounded) {
+  SceneSettings s = goodSettings();
+  s.substeps.fixedSubsteps = 2000000000;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "2000000000");
+  s.substeps.fixedSubsteps = 10000001;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "10000001");
+  s.substeps.fixedSubsteps = 10000000;
+  EXPECT_NO_THROW(Scene scene(s));
+}
+
 TEST(Validation, YoungsModulusMustBePositive) {
   LiveScene live;
   for (float E : {0.f, -1e4f, kNaN}) {

@@ -96,6 +96,10 @@ void sceneSettings(const SceneSettings& s) {
     throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
                           "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");
   atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
+  if (s.substeps.fixedSubsteps > SubstepPolicy::kMaxSubsteps)
+    throw InvalidArgument("SceneSettings.substeps.fixedSubsteps", std::to_string(s.substeps.fixedSubsteps),
+                          "must be <= " + std::to_string(SubstepPolicy::kMaxSubsteps) +
+                              ", the most substeps an advance takes");
   positive("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance);
   finite("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed);
   if (s.energyCheck.noiseSpeed < 0.f)

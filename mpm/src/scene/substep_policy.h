@@ -19,10 +19,8 @@ struct SubstepBounds {
   float maxParticleSpeed;  ///< fastest particle after the last advance, or as seeded [m/s]
   SimBackend& backend;     ///< not const: stableTimeStep() may finish a deferred setup
 
-  /// Most substeps one advance takes: a day of substeps at 10 ms each. More means a
-  /// material, speed or spacing far from what the scene can step (E = 1e30 Pa asks for
-  /// 2.4e12 substeps in a millisecond); an int count would also overflow.
-  static constexpr float kMaxSubsteps = 1e7f;
+  /// Most substeps one advance takes (SubstepPolicy::kMaxSubsteps).
+  static constexpr float kMaxSubsteps = SubstepPolicy::kMaxSubsteps;
 
   /// Longest substep: the CFL bound on the fastest elastic wave plus the fastest particle
   /// or shape, and the solver's own stable step.
