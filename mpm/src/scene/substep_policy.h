@@ -22,6 +22,11 @@ struct SubstepBounds {
   /// Most substeps one advance takes (SubstepPolicy::kMaxSubsteps).
   static constexpr float kMaxSubsteps = SubstepPolicy::kMaxSubsteps;
 
+  /// Fastest a shape, slicer or curve may be given [m/s], refused where it is given: a
+  /// speed that alone needs more than kMaxSubsteps substeps per simulated second, each
+  /// moving it cflFor(solver) * dx.
+  static float maxShapeSpeed(const SceneSettings& s) { return kMaxSubsteps * s.substeps.cflFor(s.solver) * s.dx; }
+
   /// Longest substep: the CFL bound on the fastest elastic wave plus the fastest particle
   /// or shape, and the solver's own stable step.
   float maxSubstep() const;
@@ -31,7 +36,18 @@ struct SubstepBounds {
   int substepCount(float dt) const;
 
  private:
-  /// Names what bounds the substep: the stiffest material, the solver's own step, speeds.
+  /// The fastest shape, slicer or curve point and the field that gives its speed.
+  struct FastestShape {
+    float speed = 0.f;
+    const char* kind = nullptr;   ///< "shape", "slicer", "curve"; null: none moves
+    size_t index = 0;
+    const char* field = nullptr;  ///< e.g. "ShapeState.linearVelocity"
+    int point = -1;               ///< a thread's point, or -1
+  };
+  FastestShape fastestShape() const;
+  /// Names what bounds the substep: the fastest shape when its speed dominates, the
+  /// stiffest material when its wave speed does or the solver's own step binds, else the
+  /// fastest particle.
   [[noreturn]] void refuseSubsteps(float dt, float dtMax) const;
 };
 
