@@ -364,5 +364,20 @@ TEST(Validation, SubstepRefusalNamesTheFastestShape) {
   EXPECT_EQ(live.scene.time(), 0.0);
 }
 
+// A blade sampled too finely is refused naming the slicer's field, not the distance
+// grid builder's "cellSize".
+TEST(Validation, BladeSampleSpacingIsNamedAsTheSlicers) {
+  LiveScene live;
+  MeshSlicerDesc blade;
+  blade.blade.vertices = {{-0.05f, 0.f, 0.f}, {0.05f, 0.f, 0.f}, {0.f, 0.03f, 0.f}};
+  blade.blade.indices = {0, 1, 2};
+  blade.pose.position = {0.3f, 0.8f, 0.3f};
+  blade.sampleSpacing = 1e-6f;  // 1e5 samples along the edge
+  expectRejected([&] { live.scene.addSlicer(blade); }, "MeshSlicerDesc.sampleSpacing", "1e-06");
+  blade.sampleSpacing = 0.f;  // a quarter of dx
+  EXPECT_EQ(live.scene.addSlicer(blade).index, 0u);
+  live.expectStillUsable();
+}
+
 }  // namespace
 }  // namespace mpm
