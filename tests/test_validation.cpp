@@ -223,6 +223,15 @@ TEST(Validation, GridTooLargeForMemoryIsRefused) {
       EXPECT_NE(std::string(e.what()).find(" GB"), std::string::npos) << e.what();
     }
   }
+  // the bytes stated are those the CPU's tables take, 12 a block (three 4-byte tables):
+  // 1024 x 1024 x 257 blocks of 4^3 nodes at dx = 1 m, 3.23 GB
+  SceneSettings wide = goodSettings();
+  wide.domain.lower = {0.f, 0.f, 0.f};
+  wide.domain.upper = {4095.f, 4095.f, 1027.f};
+  wide.dx = 1.f;
+  wide.backend = Backend::Cpu;
+  expectRejected([&] { Scene scene(wide); }, "SceneSettings.dx", "gives 2.69e+08 grid blocks");
+  expectRejected([&] { Scene scene(wide); }, "SceneSettings.dx", "would take 3.23 GB of memory");
   // MTLED has no grid: only the per-axis bound applies
   SceneSettings s = goodSettings();
   s.domain.lower = {0.f, 0.f, 0.f};
