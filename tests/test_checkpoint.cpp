@@ -349,6 +349,39 @@ std::vector<uint8_t> patched(const std::vector<uint8_t>& good, size_t offset, co
   return file;
 }
 
+// Run-time policies (recovery, the energy check, the backend and its threads) are not the
+// model: a checkpoint loads into the same scene run under other policies; a model field
+// (the substep policy) still makes it another scene's.
+TEST(SceneCheckpointFields, RunTimePoliciesMayDiffer) {
+  SceneSettings policies = sceneSettings(SolverType::MlsMpm);
+  policies.recovery.enabled = true;
+  policies.recovery.maxHalvings = 7;
+  policies.energyCheck.enabled = true;
+  policies.energyCheck.tolerance = 0.3f;
+  policies.energyCheck.noiseSpeed = 0.01f;
+  policies.cpuThreads = 2;
+  policies.backend = Backend::Auto;
+  TestScene saved(SolverType::MlsMpm), plain(SolverType::MlsMpm);
+  Scene withPolicies(policies);
+  withPolicies.loadFromMemory(saved.scene.saveToMemory());  // the same physics: its model
+  run(saved, 2);
+  withPolicies.step(kFrame);
+  withPolicies.step(kFrame);
+  EXPECT_NO_THROW(plain.scene.loadFromMemory(withPolicies.saveToMemory()));
+  EXPECT_EQ(plain.scene.time(), withPolicies.time());
+  EXPECT_EQ(plain.scene.particleCount(), saved.scene.particleCount());
+  SceneSettings model = policies;
+  model.substeps.fixedSubsteps = 3;
+  Scene other(model);
+  try {
+    plain.scene.loadFromMemory(other.saveToMemory());
+    ADD_FAILURE() << "a checkpoint of another substep policy was accepted";
+  } catch (const CheckpointError& e) {
+    EXPECT_EQ(e.reason(), Reason::OtherScene) << e.what();
+    EXPECT_NE(std::string(e.what()).find("SceneSettings.substeps.fixedSubsteps = 3"), std::string::npos) << e.what();
+  }
+}
+
 // A particle far outside the grid in a checkpoint whose CRC holds (fuzz_checkpoint: x =
 // 2e31, whose stencil index overflowed an int in the first step) is refused on loading,
 // as is one just outside the grid and one at NaN; the scene is left as it was.
