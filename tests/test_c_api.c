@@ -19,10 +19,17 @@ static int failures = 0;
     }                                                       \
   } while (0)
 
-/* A call that must fail with `status` and a message containing `needle`. */
+/* A call that must fail with `status` and a message containing `needle`, in the C
+ * header's names: no C++ struct's name (SceneSettings.dx is mpm_scene_settings.dx here). */
 static void expectError(mpm_status got, mpm_status status, const char* needle) {
+  static const char* const cxxNames[] = {"SceneSettings.", "ParticleObjectDesc.", "ShapeDesc.",       "ShapeState.",
+                                         "QuadSlicerDesc.", "MeshSlicerDesc.",    "ArcDesc.",         "LineSegmentsDesc.",
+                                         "cellSize"};
   CHECK(got == status, "status %d, expected %d (%s)", (int)got, (int)status, mpm_last_error());
   CHECK(strstr(mpm_last_error(), needle) != NULL, "message \"%s\" does not name \"%s\"", mpm_last_error(), needle);
+  for (size_t i = 0; i < sizeof cxxNames / sizeof cxxNames[0]; ++i)
+    CHECK(strstr(mpm_last_error(), cxxNames[i]) == NULL, "message \"%s\" names the C++ %s", mpm_last_error(),
+          cxxNames[i]);
   printf("  refused as expected: %s\n", mpm_last_error());
 }
 
@@ -112,6 +119,10 @@ static void restingOnCompoundAndMeshShapes(void) {
   expectError(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
               "parts[1].mesh_cell_size = -1");
   parts[1].mesh_cell_size = 0.f;
+  parts[0].half_extents.y = -1.f;
+  expectError(mpm_scene_add_compound_shape(scene, &body, parts, 2, &compound), MPM_ERROR_INVALID_ARGUMENT,
+              "parts[0].half_extents = (");
+  parts[0].half_extents = halfHalf;
   uint32_t badIndices[36];
   memcpy(badIndices, kBoxIndices, sizeof badIndices);
   badIndices[5] = 8;
@@ -155,7 +166,7 @@ static void restingOnCompoundAndMeshShapes(void) {
   block.primitive = MPM_PRIMITIVE_MESH;
   block.mesh = cubeMesh;
   block.mesh.triangle_count = 11; /* a hole: no inside */
-  expectError(mpm_scene_add_object(scene, &block, &onMesh), MPM_ERROR_INVALID_ARGUMENT, "ParticleObjectDesc.mesh");
+  expectError(mpm_scene_add_object(scene, &block, &onMesh), MPM_ERROR_INVALID_ARGUMENT, "mpm_object_desc.mesh");
   block.mesh = cubeMesh;
   CHECK(mpm_scene_add_object(scene, &block, &onMesh) == MPM_OK, "%s", mpm_last_error());
   size_t n = 0, nMesh = 0;
@@ -205,7 +216,7 @@ static void restingOnCompoundAndMeshShapes(void) {
   thread.points = pts;
   thread.point_count = 1;
   expectError(mpm_scene_add_line_segments(scene, &thread, &threadId), MPM_ERROR_INVALID_ARGUMENT,
-              "LineSegmentsDesc.points = 1 points");
+              "mpm_line_segments_desc.points = 1 points");
   thread.points = NULL;
   thread.point_count = 3;
   expectError(mpm_scene_add_line_segments(scene, &thread, &threadId), MPM_ERROR_INVALID_ARGUMENT,
@@ -357,7 +368,7 @@ int main(void) {
   mpm_scene* scene = NULL;
   mpm_scene_settings s = settings();
   s.dx = 0.f;
-  expectError(mpm_scene_create(&s, &scene), MPM_ERROR_INVALID_ARGUMENT, "dx = 0");
+  expectError(mpm_scene_create(&s, &scene), MPM_ERROR_INVALID_ARGUMENT, "mpm_scene_settings.dx = 0");
   CHECK(scene == NULL, "no scene on failure");
   s = settings();
   s.solver = 7;
@@ -366,6 +377,13 @@ int main(void) {
   s.backend = -1;
   expectError(mpm_scene_create(&s, &scene), MPM_ERROR_INVALID_ARGUMENT, "mpm_scene_settings.backend = -1");
   expectError(mpm_scene_create(NULL, &scene), MPM_ERROR_INVALID_ARGUMENT, "settings = NULL");
+  s = settings();
+  s.domain_upper.y = s.domain_lower.y - 1.f;
+  expectError(mpm_scene_create(&s, &scene), MPM_ERROR_INVALID_ARGUMENT, "mpm_scene_settings.domain_upper = (");
+  s = settings();
+  s.pb_iterations = 0;
+  s.solver = MPM_SOLVER_PB;
+  expectError(mpm_scene_create(&s, &scene), MPM_ERROR_INVALID_ARGUMENT, "mpm_scene_settings.pb_iterations = 0");
 
   s = settings();
   CHECK(mpm_scene_create(&s, &scene) == MPM_OK, "%s", mpm_last_error());
@@ -380,7 +398,8 @@ int main(void) {
   block.material.youngs_modulus = 2e4f;
   block.material.poisson_ratio = 0.7f;
   mpm_object_id id;
-  expectError(mpm_scene_add_object(scene, &block, &id), MPM_ERROR_INVALID_ARGUMENT, "poissonRatio = 0.7");
+  expectError(mpm_scene_add_object(scene, &block, &id), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_object_desc.material.poisson_ratio = 0.7");
   block.material.poisson_ratio = 0.3f;
   block.material.model = 5;
   expectError(mpm_scene_add_object(scene, &block, &id), MPM_ERROR_INVALID_ARGUMENT, "material.model = 5");
@@ -408,7 +427,19 @@ int main(void) {
   mpm_shape_id groundId;
   expectError(mpm_scene_add_shape(scene, &ground, &groundId), MPM_ERROR_INVALID_ARGUMENT, "contact_mode = 3");
   ground.contact_mode = MPM_CONTACT_FRICTIONAL;
+  ground.half_extents.x = -0.2f;
+  expectError(mpm_scene_add_shape(scene, &ground, &groundId), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_shape_desc.half_extents = (-0.2, 0.02, 0.2)");
+  ground.half_extents.x = 0.2f;
+  ground.state.linear_velocity.x = 1e30f;
+  expectError(mpm_scene_add_shape(scene, &ground, &groundId), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_shape_desc.state.linear_velocity = (1e+30, 0, 0)");
+  ground.state.linear_velocity.x = 0.f;
   CHECK(mpm_scene_add_shape(scene, &ground, &groundId) == MPM_OK, "%s", mpm_last_error());
+  mpm_body_state fast = ground.state;
+  fast.angular_velocity.z = 1e30f;
+  expectError(mpm_scene_set_shape_state(scene, groundId, &fast), MPM_ERROR_INVALID_ARGUMENT,
+              "mpm_body_state.angular_velocity = (0, 0, 1e+30)");
   mpm_quad_slicer_desc blade;
   mpm_quad_slicer_desc_default(&blade);
   blade.state.pose.position = (mpm_vec3){0.2f, 0.2f, 0.f};
@@ -419,7 +450,7 @@ int main(void) {
   needle.state.pose.position = (mpm_vec3){-0.2f, 0.2f, 0.f};
   needle.end_angle = 7.f;
   mpm_curve_id needleId;
-  expectError(mpm_scene_add_arc(scene, &needle, &needleId), MPM_ERROR_INVALID_ARGUMENT, "endAngle = 7");
+  expectError(mpm_scene_add_arc(scene, &needle, &needleId), MPM_ERROR_INVALID_ARGUMENT, "mpm_arc_desc.end_angle = 7");
   mpm_arc_desc_default(&needle);
   needle.state.pose.position = (mpm_vec3){-0.2f, 0.2f, 0.f};
   CHECK(mpm_scene_add_arc(scene, &needle, &needleId) == MPM_OK, "%s", mpm_last_error());

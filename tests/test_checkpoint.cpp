@@ -4,6 +4,7 @@
 // thread, with a static and a dynamic shape); a refused checkpoint changes nothing.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -142,6 +143,30 @@ TEST(CheckpointFormat, AFailedSaveLeavesThePreviousFile) {
   }
   EXPECT_EQ(checkpoint::readFile(path), first);
   EXPECT_EQ(std::fopen((path + ".tmp").c_str(), "rb"), nullptr) << "the partial file was left behind";
+  std::remove(path.c_str());
+}
+
+// readFile checks a file's kind, size and header before it reads the file: a device that
+// never ends (/dev/zero: read until memory ran out), a directory, or a huge file whose
+// header does not state its size is refused at once, naming the path and why.
+TEST(CheckpointFormat, ReadFileChecksKindAndSizeBeforeReading) {
+  const auto refusedAs = [](const std::string& path, Reason reason, const std::string& why) {
+    try {
+      checkpoint::readFile(path);
+      ADD_FAILURE() << path << " was read";
+    } catch (const CheckpointError& e) {
+      EXPECT_EQ(e.reason(), reason) << e.what();
+      EXPECT_NE(std::string(e.what()).find("'" + path + "'"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find(why), std::string::npos) << e.what();
+    }
+  };
+  refusedAs("/dev/zero", Reason::NotACheckpoint, "is not a regular file (a character device)");
+  refusedAs(::testing::TempDir(), Reason::NotACheckpoint, "is not a regular file (a directory)");
+  // a sparse 64 GiB file that starts as a checkpoint of a few bytes
+  const std::string path = ::testing::TempDir() + "mpm_checkpoint_huge.bin";
+  checkpoint::writeFileAtomically(path, sampleFile());
+  ASSERT_EQ(::truncate(path.c_str(), off_t(1) << 36), 0);
+  refusedAs(path, Reason::Truncated, "(trailing bytes)");
   std::remove(path.c_str());
 }
 
@@ -322,6 +347,39 @@ std::vector<uint8_t> patched(const std::vector<uint8_t>& good, size_t offset, co
                                          file.size() - checkpoint::kHeaderBytes);
   std::memcpy(&file[12], &crc, 4);
   return file;
+}
+
+// Run-time policies (recovery, the energy check, the backend and its threads) are not the
+// model: a checkpoint loads into the same scene run under other policies; a model field
+// (the substep policy) still makes it another scene's.
+TEST(SceneCheckpointFields, RunTimePoliciesMayDiffer) {
+  SceneSettings policies = sceneSettings(SolverType::MlsMpm);
+  policies.recovery.enabled = true;
+  policies.recovery.maxHalvings = 7;
+  policies.energyCheck.enabled = true;
+  policies.energyCheck.tolerance = 0.3f;
+  policies.energyCheck.noiseSpeed = 0.01f;
+  policies.cpuThreads = 2;
+  policies.backend = Backend::Auto;
+  TestScene saved(SolverType::MlsMpm), plain(SolverType::MlsMpm);
+  Scene withPolicies(policies);
+  withPolicies.loadFromMemory(saved.scene.saveToMemory());  // the same physics: its model
+  run(saved, 2);
+  withPolicies.step(kFrame);
+  withPolicies.step(kFrame);
+  EXPECT_NO_THROW(plain.scene.loadFromMemory(withPolicies.saveToMemory()));
+  EXPECT_EQ(plain.scene.time(), withPolicies.time());
+  EXPECT_EQ(plain.scene.particleCount(), saved.scene.particleCount());
+  SceneSettings model = policies;
+  model.substeps.fixedSubsteps = 3;
+  Scene other(model);
+  try {
+    plain.scene.loadFromMemory(other.saveToMemory());
+    ADD_FAILURE() << "a checkpoint of another substep policy was accepted";
+  } catch (const CheckpointError& e) {
+    EXPECT_EQ(e.reason(), Reason::OtherScene) << e.what();
+    EXPECT_NE(std::string(e.what()).find("SceneSettings.substeps.fixedSubsteps = 3"), std::string::npos) << e.what();
+  }
 }
 
 // A particle far outside the grid in a checkpoint whose CRC holds (fuzz_checkpoint: x =

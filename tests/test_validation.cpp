@@ -106,6 +106,17 @@ TEST(Validation, GravityAndSubstepPolicyMustBeFinite) {
   expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "-3");
 }
 
+// No more fixed substeps than an advance may take (SubstepPolicy::kMaxSubsteps, 1e7).
+TEST(Validation, FixedSubstepsAreBounded) {
+  SceneSettings s = goodSettings();
+  s.substeps.fixedSubsteps = 2000000000;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "2000000000");
+  s.substeps.fixedSubsteps = 10000001;
+  expectRejected([&] { Scene scene(s); }, "SceneSettings.substeps.fixedSubsteps", "10000001");
+  s.substeps.fixedSubsteps = 10000000;
+  EXPECT_NO_THROW(Scene scene(s));
+}
+
 TEST(Validation, YoungsModulusMustBePositive) {
   LiveScene live;
   for (float E : {0.f, -1e4f, kNaN}) {
@@ -212,6 +223,15 @@ TEST(Validation, GridTooLargeForMemoryIsRefused) {
       EXPECT_NE(std::string(e.what()).find(" GB"), std::string::npos) << e.what();
     }
   }
+  // the bytes stated are those the CPU's tables take, 12 a block (three 4-byte tables):
+  // 1024 x 1024 x 257 blocks of 4^3 nodes at dx = 1 m, 3.23 GB
+  SceneSettings wide = goodSettings();
+  wide.domain.lower = {0.f, 0.f, 0.f};
+  wide.domain.upper = {4095.f, 4095.f, 1027.f};
+  wide.dx = 1.f;
+  wide.backend = Backend::Cpu;
+  expectRejected([&] { Scene scene(wide); }, "SceneSettings.dx", "gives 2.69e+08 grid blocks");
+  expectRejected([&] { Scene scene(wide); }, "SceneSettings.dx", "would take 3.23 GB of memory");
   // MTLED has no grid: only the per-axis bound applies
   SceneSettings s = goodSettings();
   s.domain.lower = {0.f, 0.f, 0.f};
@@ -261,6 +281,110 @@ TEST(Validation, EnumValuesOutsideTheirListAreRefused) {
   shape.parts[0].type = GeometryType::Sphere;
   shape.contact.mode = static_cast<ContactMode>(99);
   expectRejected([&] { live.scene.addShape(shape); }, "ShapeDesc.contact.mode", "99");
+  live.expectStillUsable();
+}
+
+// The fastest a shape may move: the speed that alone needs the substep limit (1e7) of
+// substeps per simulated second at the CFL number in force (shapes.h).
+float shapeSpeedLimit(const SceneSettings& s) { return 1e7f * s.substeps.cflFor(s.solver) * s.dx; }
+
+ShapeDesc movingSphere(Vec3f v, Vec3f w = {}) {
+  ShapeDesc d;
+  d.parts = {Geometry::sphere(0.05f)};
+  d.pose.position = {0.3f, 0.8f, 0.3f};
+  d.linearVelocity = v;
+  d.angularVelocity = w;
+  return d;
+}
+
+// A shape too fast for the grid is refused where it is given, naming its field, not by the
+// next advance naming the tissue's material.
+TEST(Validation, ShapeFasterThanTheGridIsRefusedWhereGiven) {
+  LiveScene live;
+  const float limit = shapeSpeedLimit(live.scene.settings());
+  expectRejected([&] { live.scene.addShape(movingSphere({1e30f, 0.f, 0.f})); }, "ShapeDesc.linearVelocity", "1e+30");
+  expectRejected([&] { live.scene.addShape(movingSphere({1.01f * limit, 0.f, 0.f})); }, "ShapeDesc.linearVelocity",
+                 "");
+  // the sphere's rim, 0.05 m from its centre, at 1.01 times the limit
+  expectRejected([&] { live.scene.addShape(movingSphere({}, {0.f, 0.f, 1.01f * limit / 0.05f})); },
+                 "ShapeDesc.angularVelocity", "");
+  const ShapeId shape = live.scene.addShape(movingSphere({0.99f * limit, 0.f, 0.f}));
+  EXPECT_EQ(shape.index, 0u);  // nothing was added before it
+  ShapeState fast = live.scene.shapeState(shape);
+  fast.linearVelocity = {0.f, -1e30f, 0.f};
+  expectRejected([&] { live.scene.setShapeState(shape, fast); }, "ShapeState.linearVelocity", "-1e+30");
+  fast.linearVelocity = {};
+  fast.angularVelocity = {1e30f, 0.f, 0.f};
+  expectRejected([&] { live.scene.setShapeState(shape, fast); }, "ShapeState.angularVelocity", "1e+30");
+  EXPECT_EQ(live.scene.shapeState(shape).linearVelocity.x, 0.99f * limit);  // unchanged
+  fast.angularVelocity = {};
+  live.scene.setShapeState(shape, fast);
+  live.expectStillUsable();
+}
+
+TEST(Validation, SlicerOrCurveFasterThanTheGridIsRefusedWhereGiven) {
+  LiveScene live;
+  QuadSlicerDesc blade;
+  blade.pose.position = {0.3f, 0.8f, 0.3f};
+  blade.linearVelocity = {0.f, -1e30f, 0.f};
+  expectRejected([&] { live.scene.addSlicer(blade); }, "QuadSlicerDesc.linearVelocity", "-1e+30");
+  blade.linearVelocity = {};
+  const SlicerId slicer = live.scene.addSlicer(blade);
+  ShapeState fast = live.scene.slicerState(slicer);
+  fast.angularVelocity = {0.f, 0.f, 1e30f};
+  expectRejected([&] { live.scene.setSlicerState(slicer, fast); }, "ShapeState.angularVelocity", "1e+30");
+
+  ArcDesc needle;
+  needle.pose.position = {-0.3f, 0.8f, 0.3f};
+  // its tip, radius from the frame's origin, at twice the limit
+  needle.angularVelocity = {0.f, 0.f, 2.f * shapeSpeedLimit(live.scene.settings()) / needle.radius};
+  expectRejected([&] { live.scene.addCurve(needle); }, "ArcDesc.angularVelocity", "");
+  needle.angularVelocity = {};
+  const CurveId arc = live.scene.addCurve(needle);
+  fast = live.scene.curveState(arc);
+  fast.linearVelocity = {1e30f, 0.f, 0.f};
+  expectRejected([&] { live.scene.setCurveState(arc, fast); }, "ShapeState.linearVelocity", "1e+30");
+
+  LineSegmentsDesc thread;
+  thread.points = {{-0.3f, 0.8f, -0.3f}, {-0.2f, 0.8f, -0.3f}};
+  thread.velocities = {{0.f, 0.f, 0.f}, {0.f, 0.f, 1e30f}};
+  expectRejected([&] { live.scene.addCurve(thread); }, "LineSegmentsDesc.velocities[1]", "1e+30");
+  thread.velocities.clear();
+  const CurveId wire = live.scene.addCurve(thread);
+  expectRejected([&] { live.scene.setCurvePoints(wire, thread.points, {{1e30f, 0.f, 0.f}, {}}); },
+                 "LineSegmentsDesc.velocities[0]", "1e+30");
+  EXPECT_EQ(live.scene.curveState(arc).linearVelocity.x, 0.f);
+  live.expectStillUsable();
+}
+
+// An advance refused for too many substeps names what set the substep: here a shape
+// within the limit but too fast for a 10 s advance, not the soft tissue's material.
+TEST(Validation, SubstepRefusalNamesTheFastestShape) {
+  LiveScene live;
+  live.scene.addShape(movingSphere({0.f, 0.f, 0.5f * shapeSpeedLimit(live.scene.settings())}));
+  try {
+    live.scene.step(10.f);
+    ADD_FAILURE() << "an advance of 5e7 substeps was taken";
+  } catch (const InvalidArgument& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("shape 0's ShapeState.linearVelocity"), std::string::npos) << m;
+    EXPECT_EQ(m.find("youngsModulus"), std::string::npos) << m;
+  }
+  EXPECT_EQ(live.scene.time(), 0.0);
+}
+
+// A blade sampled too finely is refused naming the slicer's field, not the distance
+// grid builder's "cellSize".
+TEST(Validation, BladeSampleSpacingIsNamedAsTheSlicers) {
+  LiveScene live;
+  MeshSlicerDesc blade;
+  blade.blade.vertices = {{-0.05f, 0.f, 0.f}, {0.05f, 0.f, 0.f}, {0.f, 0.03f, 0.f}};
+  blade.blade.indices = {0, 1, 2};
+  blade.pose.position = {0.3f, 0.8f, 0.3f};
+  blade.sampleSpacing = 1e-6f;  // 1e5 samples along the edge
+  expectRejected([&] { live.scene.addSlicer(blade); }, "MeshSlicerDesc.sampleSpacing", "1e-06");
+  blade.sampleSpacing = 0.f;  // a quarter of dx
+  EXPECT_EQ(live.scene.addSlicer(blade).index, 0u);
   live.expectStillUsable();
 }
 

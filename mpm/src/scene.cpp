@@ -234,6 +234,7 @@ void Scene::setCurveState(CurveId id, const ShapeState& s) {
   const auto held = impl_->changing("setCurveState");
   CurveRecord& c = impl_->curveOfKind(id, true, "setCurveState");
   validateShapeState(s);
+  checkSpeed("ShapeState", c, s, impl_->settings);
   c.state = s;
 }
 ShapeState Scene::curveState(CurveId id) const {
@@ -244,6 +245,7 @@ void Scene::setCurvePoints(CurveId id, const std::vector<Vec3f>& points, const s
   const auto held = impl_->changing("setCurvePoints");
   CurveRecord& c = impl_->curveOfKind(id, false, "setCurvePoints");
   validateCurvePoints(points, velocities, c.thread.points.size());
+  validateThreadSpeeds(velocities, SubstepBounds::maxShapeSpeed(impl_->settings));
   c.thread.points = points;
   c.thread.velocities = velocities;
 }

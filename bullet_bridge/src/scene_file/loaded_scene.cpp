@@ -13,11 +13,51 @@ namespace {
 
 btVector3 bt(Vec3f v) { return btVector3(v.x, v.y, v.z); }
 
+/// Where the parser is in the document, as a key path ("objects[1].material"): the
+/// parser's events, followed, so that a value it refuses is named at its key.
+class KeyPath {
+ public:
+  bool follow(Json::parse_event_t event, const Json& parsed) {
+    using E = Json::parse_event_t;
+    if ((event == E::object_start || event == E::array_start || event == E::value) && !frames_.empty() &&
+        frames_.back().array)
+      ++frames_.back().index;  // the start of an element
+    if (event == E::object_start || event == E::array_start) frames_.push_back({event == E::array_start, {}, -1});
+    if (event == E::object_end || event == E::array_end) frames_.pop_back();
+    if (event == E::key) frames_.back().key = parsed.get<std::string>();
+    return true;
+  }
+  /// The path of the value the parser reads next.
+  std::string next() const {
+    std::string path;
+    for (const Frame& f : frames_)
+      path = f.array ? element(path, (size_t)f.index + (&f == &frames_.back())) : child(path, f.key);
+    return path;
+  }
+
+ private:
+  struct Frame {
+    bool array;
+    std::string key;
+    long index;
+  };
+  std::vector<Frame> frames_;
+};
+
 Json parseJson(const std::string& text, const std::string& what) {
+  KeyPath at;
   try {
-    return Json::parse(text);
+    return Json::parse(text, [&at](int, Json::parse_event_t event, Json& parsed) { return at.follow(event, parsed); });
+  } catch (const Json::out_of_range& e) {
+    // a number beyond a double (4e400): nlohmann's message quotes its text
+    const std::string m = e.what(), open = "parsing '";
+    const size_t from = m.find(open), to = from == std::string::npos ? from : m.find('\'', from + open.size());
+    const std::string path = at.next();
+    if (to != std::string::npos && !path.empty())
+      throw InvalidArgument(path, m.substr(from + open.size(), to - from - open.size()),
+                            "is beyond the range of a number (a double, about 1.8e308)");
+    throw InvalidArgument(what, "(not JSON)", e.what());
   } catch (const Json::exception& e) {
-    // not only parse_error: a number beyond a double (4e400) is out_of_range (fuzz_scene_file)
     throw InvalidArgument(what, "(not JSON)", e.what());
   }
 }

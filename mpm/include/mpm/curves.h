@@ -16,6 +16,10 @@
 /// - LineSegmentsDesc: a thread, a polyline whose points are set before each advance (from
 ///   the links of a Bullet multibody chain: mpm_bullet/suture.h); each segment is its own
 ///   body and reports its own impulse.
+///
+/// A needle's tip and each of a thread's points move no faster than a shape may
+/// (ShapeDesc: SubstepPolicy::kMaxSubsteps * cflFor(solver) * dx per second); faster is
+/// refused where it is given, naming the field.
 #include <cstdint>
 #include <limits>
 #include <vector>

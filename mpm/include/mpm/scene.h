@@ -224,8 +224,9 @@ class Scene {
   /// objects and shapes again. Stepping on is bit for bit the run that was saved (CPU
   /// backend, same thread count). Refused with CheckpointError, changing nothing, when the
   /// bytes are not a checkpoint, of another format version, truncated, corrupted (CRC-32)
-  /// or of a scene whose model settings differ (named with both values; the backend and
-  /// thread count may differ). Not during a step.
+  /// or of a scene whose model settings differ (named with both values; the backend, the
+  /// thread count and the run-time policies, energyCheck and recovery, may differ). A file
+  /// is checked (a regular file, its size and header) before it is read. Not during a step.
   std::vector<uint8_t> load(const std::string& path);
   std::vector<uint8_t> loadFromMemory(const std::vector<uint8_t>& checkpoint);
   /// The attachment of a checkpoint this scene would load, checked as load() checks it,

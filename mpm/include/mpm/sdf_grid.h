@@ -68,7 +68,8 @@ constexpr float kNoBlade = 1e30f;
 /// normals face, from the nearest feature's angle-weighted pseudo-normal); where it lies on
 /// the mesh's boundary (past an edge or end of the blade) kNoBlade. Throws InvalidArgument
 /// for an empty mesh, bad indices, a non-positive cell size, or a mesh whose triangles are
-/// not consistently oriented (or share an edge among more than two).
+/// not consistently oriented (or share an edge among more than two); a cell size too fine
+/// is named as what it is, MeshSlicerDesc.sampleSpacing.
 SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, float reach);
 
 }  // namespace mpm

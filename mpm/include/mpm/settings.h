@@ -130,8 +130,14 @@ struct SubstepPolicy {
   /// [0, 1]; 0: the solver's own default (defaultCflNumber). Until issue 19 the default
   /// was 0.3 for every solver (a margin of 3.5x for MLS-MPM): set 0.3 to get that back.
   float cflNumber = 0.f;
-  /// If > 0, use exactly this many substeps per advance() and skip the CFL bound.
+  /// If > 0, use exactly this many substeps per advance() and skip the CFL bound; at
+  /// most kMaxSubsteps.
   int fixedSubsteps = 0;
+  /// Most substeps one advance takes (the CFL count, fixedSubsteps, and recovery's
+  /// halvings of either): a day of substeps at 10 ms each. More means a material, speed
+  /// or spacing far from what the scene can step (E = 1e30 Pa asks for 2.4e12 substeps in
+  /// a millisecond); an int count would also overflow.
+  static constexpr int kMaxSubsteps = 10000000;
 
   /// The CFL number in force for `solver`: cflNumber, or the solver's default when 0.
   float cflFor(SolverType solver) const { return cflNumber > 0.f ? cflNumber : defaultCflNumber(solver); }

@@ -15,7 +15,9 @@
 namespace mpm {
 
 /// Model: fixed for a scene's life; it defines the physics, so a checkpoint only loads into
-/// a scene whose model fields are equal. Execution: where and how fast it runs; may differ.
+/// a scene whose model fields are equal. Execution: where and how fast it runs, and the
+/// run-time policies that watch it (the energy check, recovery from a diverged advance),
+/// which change no step that runs to its end; may differ.
 enum class FieldRole { Model, Execution };
 
 /// Calls v(name, field, role) for every field of SceneSettings, in declaration order; a
@@ -46,13 +48,13 @@ void forEachField(S& s, Visitor&& v) {
   v("SceneSettings.mtled.timeStepSafety", s.mtled.timeStepSafety, M);
   v("SceneSettings.substeps.cflNumber", s.substeps.cflNumber, M);
   v("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, M);
-  v("SceneSettings.energyCheck.enabled", s.energyCheck.enabled, M);
-  v("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance, M);
-  v("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed, M);
+  v("SceneSettings.energyCheck.enabled", s.energyCheck.enabled, E);
+  v("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance, E);
+  v("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed, E);
   v("SceneSettings.divergenceCheck.enabled", s.divergenceCheck.enabled, E);
   v("SceneSettings.divergenceCheck.maxCellsPerSubstep", s.divergenceCheck.maxCellsPerSubstep, E);
-  v("SceneSettings.recovery.enabled", s.recovery.enabled, M);
-  v("SceneSettings.recovery.maxHalvings", s.recovery.maxHalvings, M);
+  v("SceneSettings.recovery.enabled", s.recovery.enabled, E);
+  v("SceneSettings.recovery.maxHalvings", s.recovery.maxHalvings, E);
   v("SceneSettings.backend", s.backend, E);
   v("SceneSettings.cpuThreads", s.cpuThreads, E);
 }

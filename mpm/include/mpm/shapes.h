@@ -81,6 +81,12 @@ struct ContactParams {
 
 /// Description of a rigid shape. mass = 0: kinematic (moved by the caller, unaffected by
 /// the tissue); mass > 0: dynamic, its velocity responds to the tissue within a step.
+/// Speed bound (here, in ShapeState, and for slicers and curves): no point of the shape
+/// may move faster than SubstepPolicy::kMaxSubsteps (1e7) * cflFor(solver) * dx per
+/// second, the speed that alone would need more substeps per simulated second than an
+/// advance may take (16.5 km/s at dx = 3 mm with MLS-MPM's 0.55); linearVelocity beyond it,
+/// or angularVelocity turning the shape's farthest point (a plane: the domain's diagonal)
+/// beyond it, is refused where it is given (InvalidArgument naming the field).
 struct ShapeDesc {
   std::vector<Geometry> parts;  ///< one part, or several for a compound
   Pose pose;
@@ -108,6 +114,7 @@ struct ShapeImpulse {
 
 /// Pose and velocity of a shape (after a step, a dynamic shape's velocity includes the
 /// tissue's push).
+/// Its velocities are bounded as ShapeDesc's are.
 struct ShapeState {
   Pose pose;
   Vec3f linearVelocity{0.f, 0.f, 0.f};

@@ -2,7 +2,9 @@
 /// Slicers: blades that cut the material (seed 000 section IV-B, DESIGN 5). A slicer is
 /// not a solid: its faces push the material aside within a thin band, its spine pushes
 /// like a blunt rod and never cuts, and where its blade passes the material is separated
-/// for good. Moved like a kinematic shape (pose and velocities before each advance).
+/// for good. Moved like a kinematic shape (pose and velocities before each advance), its
+/// velocities bounded as a shape's are (ShapeDesc: its blade's farthest point no faster
+/// than SubstepPolicy::kMaxSubsteps * cflFor(solver) * dx per second).
 #include <cstdint>
 #include <limits>
 

@@ -17,6 +17,7 @@
 #include "mpm/scene_batch.h"
 #include "mpm/sdf_grid.h"
 #include "mpm/slicers.h"
+#include "c_api/c_names.h"
 
 struct mpm_scene {
   mpm::Scene scene;
@@ -35,7 +36,7 @@ struct BufferTooSmall : std::runtime_error {
 };
 
 mpm_status fail(const char* call, mpm_status status, const std::string& what) {
-  lastError = std::string(call) + ": " + what;
+  lastError = std::string(call) + ": " + mpm::c_api::cNames(what, call);  // the C header's names
   return status;
 }
 

@@ -56,10 +56,11 @@ void sceneSettings(const SceneSettings& s) {
   if (!(size.x > 0.f && size.y > 0.f && size.z > 0.f))
     throw InvalidArgument("SceneSettings.domain.upper", show(s.domain.upper),
                           "must exceed domain.lower " + show(s.domain.lower) + " on every axis");
-  // The grid keeps dense tables over all its 4^3-node blocks (block -> active slot, and
-  // the binning's counts: 8 bytes a block on the CPU, 4 on the GPU) before any particle,
-  // and indexes blocks with 32-bit ints: bound the total, not only each axis. MTLED has
-  // no grid.
+  // The grid keeps dense tables over all its 4^3-node blocks before any particle, and
+  // indexes blocks with 32-bit ints: bound the total, not only each axis. The tables:
+  // on the CPU the binning's count, active slot and occupied rank of each block (4 bytes
+  // each, CpuExec::Binning), on the GPU its active slot (CudaExec::Binning; Auto may be
+  // either: the CPU's is stated). MTLED has no grid.
   double blocks = 1;
   for (int a = 0; a < 3; ++a) {
     const double cells = std::ceil(size[a] / s.dx);
@@ -68,14 +69,17 @@ void sceneSettings(const SceneSettings& s) {
                             "leaves fewer than 4 cells across the domain");
     blocks *= std::ceil((cells + 1) / 4);
   }
-  constexpr double kMaxBlocks = 1 << 28, kBytesPerBlock = 8;
+  constexpr double kMaxBlocks = 1 << 28;
+  const bool gpu = s.backend == Backend::Cuda;
+  const double bytesPerBlock = gpu ? 4 : 12;
   if (blocks > kMaxBlocks && s.solver != SolverType::Mtled) {
     std::ostringstream why;
     why.precision(3);
     why << "gives " << blocks << " grid blocks of 4^3 nodes over the domain " << show(s.domain.lower) << " - "
-        << show(s.domain.upper) << ": their tables alone would take " << blocks * kBytesPerBlock / 1e9
-        << " GB of memory, more than the limit of " << kMaxBlocks * kBytesPerBlock / 1e9 << " GB ("
-        << kMaxBlocks << " blocks); use a larger dx or a smaller domain";
+        << show(s.domain.upper) << ": their tables alone would take " << blocks * bytesPerBlock / 1e9
+        << " GB of memory (" << bytesPerBlock << " bytes a block on the " << (gpu ? "GPU" : "CPU")
+        << "), more than the limit of " << kMaxBlocks * bytesPerBlock / 1e9 << " GB (" << kMaxBlocks
+        << " blocks); use a larger dx or a smaller domain";
     throw InvalidArgument("SceneSettings.dx", show(s.dx), why.str());
   }
   for (int a = 0; a < 3; ++a)
@@ -96,6 +100,10 @@ void sceneSettings(const SceneSettings& s) {
     throw InvalidArgument("SceneSettings.substeps.cflNumber", show(s.substeps.cflNumber),
                           "must be <= 1 (explicit MPM is unstable beyond one cell per substep)");
   atLeast("SceneSettings.substeps.fixedSubsteps", s.substeps.fixedSubsteps, 0);
+  if (s.substeps.fixedSubsteps > SubstepPolicy::kMaxSubsteps)
+    throw InvalidArgument("SceneSettings.substeps.fixedSubsteps", std::to_string(s.substeps.fixedSubsteps),
+                          "must be <= " + std::to_string(SubstepPolicy::kMaxSubsteps) +
+                              ", the most substeps an advance takes");
   positive("SceneSettings.divergenceCheck.maxCellsPerSubstep", s.divergenceCheck.maxCellsPerSubstep);
   positive("SceneSettings.energyCheck.tolerance", s.energyCheck.tolerance);
   finite("SceneSettings.energyCheck.noiseSpeed", s.energyCheck.noiseSpeed);

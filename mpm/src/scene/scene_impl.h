@@ -103,6 +103,7 @@ class SceneImpl {
   void setMotion(Table& table, Id id, const ShapeState& s, const char* call) {
     auto& r = idleRecord(table, id, call);
     validateShapeState(s);
+    checkSpeed("ShapeState", r, s, settings);
     r.state = s;
   }
 
@@ -154,7 +155,9 @@ class SceneImpl {
   ShapeId addShape(const ShapeDesc& d) {
     requireIdle("addShape");
     validateShapeDesc(d);
-    return shapes.add({d, {d.pose, d.linearVelocity, d.angularVelocity}, {}});
+    ShapeRecord r{d, {d.pose, d.linearVelocity, d.angularVelocity}, {}};
+    checkSpeed("ShapeDesc", r, r.state, settings);
+    return shapes.add(r);
   }
 
   void removeShape(ShapeId id) {
@@ -174,7 +177,9 @@ class SceneImpl {
   SlicerId addSlicer(const QuadSlicerDesc& d) {
     requireCuttingSolver();
     validateSlicerDesc(d);
-    return slicers.add({d, {d.pose, d.linearVelocity, d.angularVelocity}, {}, nullptr});
+    SlicerRecord r{d, {d.pose, d.linearVelocity, d.angularVelocity}, {}, nullptr};
+    checkSpeed("QuadSlicerDesc", r, r.state, settings);
+    return slicers.add(r);
   }
 
   SlicerId addSlicer(const MeshSlicerDesc& d) {
@@ -188,7 +193,9 @@ class SceneImpl {
         buildBladeGrid(d.blade, spacing, d.halfThickness + maxStencilReach(settings.dx)));
     curved->spineFrom = d.spineFrom;
     curved->spineTo = d.spineTo;
-    return slicers.add({commonFields(d), {d.pose, d.linearVelocity, d.angularVelocity}, {}, std::move(curved)});
+    SlicerRecord r{commonFields(d), {d.pose, d.linearVelocity, d.angularVelocity}, {}, std::move(curved)};
+    checkSpeed("MeshSlicerDesc", r, r.state, settings);
+    return slicers.add(r);
   }
 
   /// The checks every addCurve makes first: between steps, and a grid solver.
@@ -206,6 +213,7 @@ class SceneImpl {
     c.needle = true;
     c.arc = d;
     c.state = {d.pose, d.linearVelocity, d.angularVelocity};
+    checkSpeed("ArcDesc", c, c.state, settings);
     c.impulses.resize(c.bodyCount());
     return curves.add(c);
   }
@@ -213,6 +221,7 @@ class SceneImpl {
   CurveId addCurve(const LineSegmentsDesc& d) {
     requireCurveSolver();
     validateCurveDesc(d);
+    validateThreadSpeeds(d.velocities, SubstepBounds::maxShapeSpeed(settings));
     CurveRecord c;
     c.needle = false;
     c.thread = d;

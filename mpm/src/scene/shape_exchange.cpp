@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 
+#include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
 #include "solvers/solver_list.h"
 
@@ -168,6 +169,17 @@ void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, CurveTable& curves
     st.angularVelocity = bodies[b].angularVelocity;
     shapes[i].lastImpulse = impulseOf(impulses[b]);
   }
+}
+
+void checkSpeed(const char* prefix, const ShapeRecord& r, const ShapeState& s, const SceneSettings& settings) {
+  const float planeReach = norm(settings.domain.upper - settings.domain.lower);
+  validateSpeed(prefix, s, reachOf(r.desc, planeReach), SubstepBounds::maxShapeSpeed(settings));
+}
+void checkSpeed(const char* prefix, const SlicerRecord& r, const ShapeState& s, const SceneSettings& settings) {
+  validateSpeed(prefix, s, reachOf(r.desc, r.curved.get()), SubstepBounds::maxShapeSpeed(settings));
+}
+void checkSpeed(const char* prefix, const CurveRecord& needle, const ShapeState& s, const SceneSettings& settings) {
+  validateSpeed(prefix, s, needle.arc.radius, SubstepBounds::maxShapeSpeed(settings));  // its tip
 }
 
 }  // namespace mpm

@@ -8,6 +8,7 @@
 #include "scene/particle_seeding.h"
 #include "scene/slot_table.h"
 #include "shapes/shape_builder.h"
+#include "shapes/shape_speed.h"
 
 namespace mpm {
 
@@ -46,6 +47,14 @@ struct CurveRecord {
   size_t bodyCount() const { return needle ? 2 : thread.points.size() - 1; }
 };
 using CurveTable = SlotTable<CurveRecord, CurveId>;
+
+/// Refuses `s` for the record's body when it moves faster than the grid can follow
+/// (SubstepBounds::maxShapeSpeed under `settings`), naming `prefix`.linearVelocity or
+/// .angularVelocity (its rim: the farthest point of the body's geometry; a plane reaches
+/// across the domain).
+void checkSpeed(const char* prefix, const ShapeRecord& r, const ShapeState& s, const SceneSettings& settings);
+void checkSpeed(const char* prefix, const SlicerRecord& r, const ShapeState& s, const SceneSettings& settings);
+void checkSpeed(const char* prefix, const CurveRecord& needle, const ShapeState& s, const SceneSettings& settings);
 
 /// Where the scene's shapes, slicers and curves are among the backend's bodies (-1: not
 /// there). A slicer is two bodies, its faces at the index given and its spine after them;

@@ -10,25 +10,46 @@
 
 namespace mpm {
 
-float SubstepBounds::maxSubstep() const {
+namespace {
+/// The fastest elastic wave of the live materials [m/s], and which object carries it.
+float stiffestWave(const ObjectTable& objects, size_t* which = nullptr) {
   float wave = 0.f;
-  if (solverTraits(settings.solver).elasticCfl)
-    for (size_t i = 0; i < objects.size(); ++i)
-      if (objects.alive(i)) wave = std::max(wave, pWaveSpeed(objects[i].material));
+  for (size_t i = 0; i < objects.size(); ++i)
+    if (objects.alive(i) && pWaveSpeed(objects[i].material) > wave) {
+      wave = pWaveSpeed(objects[i].material);
+      if (which) *which = i;
+    }
+  return wave;
+}
+}  // namespace
+
+SubstepBounds::FastestShape SubstepBounds::fastestShape() const {
+  FastestShape f;
+  auto consider = [&f](float speed, const char* kind, size_t i, const char* field, int point) {
+    if (speed > f.speed) f = {speed, kind, i, field, point};
+  };
   // a moving shape pushes material along at its own speed
-  float shapeSpeed = 0.f;
   for (size_t i = 0; i < shapes.size(); ++i)
-    if (shapes.alive(i)) shapeSpeed = std::max(shapeSpeed, norm(shapes[i].state.linearVelocity));
+    if (shapes.alive(i)) consider(norm(shapes[i].state.linearVelocity), "shape", i, "ShapeState.linearVelocity", -1);
   for (size_t i = 0; i < slicers.size(); ++i)
-    if (slicers.alive(i)) shapeSpeed = std::max(shapeSpeed, norm(slicers[i].state.linearVelocity));
+    if (slicers.alive(i)) consider(norm(slicers[i].state.linearVelocity), "slicer", i, "ShapeState.linearVelocity", -1);
   for (size_t i = 0; i < curves.size(); ++i) {
     if (!curves.alive(i)) continue;
     const CurveRecord& c = curves[i];
-    if (c.needle)  // its tip is the fastest point of it
-      shapeSpeed = std::max(shapeSpeed, norm(c.state.linearVelocity) + norm(c.state.angularVelocity) * c.arc.radius);
-    for (const Vec3f& v : c.thread.velocities) shapeSpeed = std::max(shapeSpeed, norm(v));
+    if (c.needle) {  // its tip is the fastest point of it
+      const float linear = norm(c.state.linearVelocity), turn = norm(c.state.angularVelocity) * c.arc.radius;
+      consider(linear + turn, "curve", i,
+               linear >= turn ? "ShapeState.linearVelocity" : "ShapeState.angularVelocity", -1);
+    }
+    for (size_t k = 0; k < c.thread.velocities.size(); ++k)
+      consider(norm(c.thread.velocities[k]), "curve", i, "LineSegmentsDesc.velocities", (int)k);
   }
-  const float speed = wave + std::max(maxParticleSpeed, shapeSpeed);
+  return f;
+}
+
+float SubstepBounds::maxSubstep() const {
+  const float wave = solverTraits(settings.solver).elasticCfl ? stiffestWave(objects) : 0.f;
+  const float speed = wave + std::max(maxParticleSpeed, fastestShape().speed);
   float dtMax = backend.stableTimeStep();
   if (speed > 0.f) dtMax = std::min(dtMax, settings.substeps.cflFor(settings.solver) * settings.dx / speed);
   return dtMax;
@@ -49,21 +70,29 @@ void SubstepBounds::refuseSubsteps(float dt, float dtMax) const {
   s << "needs " << (double)dt / dtMax << " substeps of at most " << dtMax << " s, more than the limit of "
     << kMaxSubsteps << " an advance takes:";
   size_t stiffest = objects.size();
-  for (size_t i = 0; i < objects.size(); ++i)
-    if (objects.alive(i) && (stiffest == objects.size() ||
-                             pWaveSpeed(objects[i].material) > pWaveSpeed(objects[stiffest].material)))
-      stiffest = i;
-  if (stiffest < objects.size())
-    s << " object " << stiffest << "'s material (youngsModulus = " << validate::show(objects[stiffest].youngsModulus)
-      << " Pa, density = " << objects[stiffest].material.density << " kg/m^3) carries elastic waves at "
-      << pWaveSpeed(objects[stiffest].material) << " m/s;";
+  const float wave = stiffestWave(objects, &stiffest);
+  const bool elastic = solverTraits(settings.solver).elasticCfl;
+  const FastestShape shape = fastestShape();
   const float own = backend.stableTimeStep();
-  if (own < std::numeric_limits<float>::infinity()) s << " the solver's own stable step is " << own << " s;";
-  s << " the fastest particle moves at " << maxParticleSpeed << " m/s (SceneSettings.substeps.cflNumber = "
-    << settings.substeps.cflNumber;
+  const bool ownBinds = own <= dtMax;
+  std::string advice = "a softer material or a larger dx";
+  if (ownBinds) s << " the solver's own stable step is " << own << " s;";
+  if (!ownBinds && shape.kind && shape.speed >= maxParticleSpeed && !(elastic && wave > shape.speed)) {
+    s << " " << shape.kind << " " << shape.index << "'s " << shape.field;
+    if (shape.point >= 0) s << "[" << shape.point << "]";
+    s << " moves it at " << shape.speed << " m/s;";
+    advice = "a slower " + std::string(shape.kind) + " or a larger dx";
+  } else if (stiffest < objects.size() && (ownBinds || (elastic && wave >= maxParticleSpeed))) {
+    s << " object " << stiffest << "'s material (youngsModulus = " << validate::show(objects[stiffest].youngsModulus)
+      << " Pa, density = " << objects[stiffest].material.density << " kg/m^3) carries elastic waves at " << wave
+      << " m/s;";
+  } else {
+    s << " the fastest particle moves at " << maxParticleSpeed << " m/s;";
+    advice = "a larger dx";
+  }
+  s << " (SceneSettings.substeps.cflNumber = " << settings.substeps.cflNumber;
   if (settings.substeps.cflNumber == 0.f) s << ", the solver's default " << settings.substeps.cflFor(settings.solver);
-  s << ", dx = " << settings.dx
-    << " m). Use a softer material or a larger dx, or advance by less at a time";
+  s << ", dx = " << settings.dx << " m). Use " << advice << ", or advance by less at a time";
   throw InvalidArgument("Scene::advance dt", validate::show(dt), s.str());
 }
 

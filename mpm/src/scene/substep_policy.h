@@ -19,10 +19,13 @@ struct SubstepBounds {
   float maxParticleSpeed;  ///< fastest particle after the last advance, or as seeded [m/s]
   SimBackend& backend;     ///< not const: stableTimeStep() may finish a deferred setup
 
-  /// Most substeps one advance takes: a day of substeps at 10 ms each. More means a
-  /// material, speed or spacing far from what the scene can step (E = 1e30 Pa asks for
-  /// 2.4e12 substeps in a millisecond); an int count would also overflow.
-  static constexpr float kMaxSubsteps = 1e7f;
+  /// Most substeps one advance takes (SubstepPolicy::kMaxSubsteps).
+  static constexpr float kMaxSubsteps = SubstepPolicy::kMaxSubsteps;
+
+  /// Fastest a shape, slicer or curve may be given [m/s], refused where it is given: a
+  /// speed that alone needs more than kMaxSubsteps substeps per simulated second, each
+  /// moving it cflFor(solver) * dx.
+  static float maxShapeSpeed(const SceneSettings& s) { return kMaxSubsteps * s.substeps.cflFor(s.solver) * s.dx; }
 
   /// Longest substep: the CFL bound on the fastest elastic wave plus the fastest particle
   /// or shape, and the solver's own stable step.
@@ -33,7 +36,18 @@ struct SubstepBounds {
   int substepCount(float dt) const;
 
  private:
-  /// Names what bounds the substep: the stiffest material, the solver's own step, speeds.
+  /// The fastest shape, slicer or curve point and the field that gives its speed.
+  struct FastestShape {
+    float speed = 0.f;
+    const char* kind = nullptr;   ///< "shape", "slicer", "curve"; null: none moves
+    size_t index = 0;
+    const char* field = nullptr;  ///< e.g. "ShapeState.linearVelocity"
+    int point = -1;               ///< a thread's point, or -1
+  };
+  FastestShape fastestShape() const;
+  /// Names what bounds the substep: the fastest shape when its speed dominates, the
+  /// stiffest material when its wave speed does or the solver's own step binds, else the
+  /// fastest particle.
   [[noreturn]] void refuseSubsteps(float dt, float dtMax) const;
 };
 

@@ -517,8 +517,9 @@ WatertightReport checkWatertight(const TriangleMesh& mesh) {
 
 namespace {
 /// An empty grid over `bounds` rounded up to whole cells, centred, plus `paddingCells` on
-/// every side; its values sized. Throws InvalidArgument on cellSize when it is too fine.
-SignedDistanceGrid gridAround(const Box3d& bounds, float cellSize, int paddingCells) {
+/// every side; its values sized. Throws InvalidArgument on cellSize, named `field`, when it
+/// is too fine.
+SignedDistanceGrid gridAround(const Box3d& bounds, float cellSize, int paddingCells, const char* field) {
   SignedDistanceGrid grid;
   grid.cellSize = cellSize;
   double samples = 1;
@@ -528,7 +529,7 @@ SignedDistanceGrid gridAround(const Box3d& bounds, float cellSize, int paddingCe
     // adding a whole cell
     const double cells = std::ceil(extent / cellSize - 1e-4) + 2.0 * paddingCells;
     if (cells + 1 > kMaxDim)
-      throw InvalidArgument("cellSize", show(cellSize),
+      throw InvalidArgument(field, show(cellSize),
                             "gives " + std::to_string((long long)cells + 1) + " samples along axis " +
                                 std::to_string(a) + " of the mesh, more than " + std::to_string(kMaxDim));
     grid.dims[a] = static_cast<int>(cells) + 1;
@@ -537,7 +538,7 @@ SignedDistanceGrid gridAround(const Box3d& bounds, float cellSize, int paddingCe
     (a == 0 ? grid.lower.x : a == 1 ? grid.lower.y : grid.lower.z) = static_cast<float>(lower);
   }
   if (samples > kMaxSamples)
-    throw InvalidArgument("cellSize", show(cellSize),
+    throw InvalidArgument(field, show(cellSize),
                           "gives " + std::to_string((long long)samples) + " grid samples, more than " +
                               std::to_string((long long)kMaxSamples));
 
@@ -562,7 +563,7 @@ SignedDistanceGrid buildSignedDistanceGrid(const TriangleMesh& mesh, float cellS
   Box3d bounds;  // of the vertices the triangles use
   for (uint32_t index : mesh.indices) bounds.grow(vertices[index]);
 
-  SignedDistanceGrid grid = gridAround(bounds, cellSize, paddingCells);
+  SignedDistanceGrid grid = gridAround(bounds, cellSize, paddingCells, "cellSize");
 
   const WatertightReport report = checkWatertight(mesh);
   if (!report.watertight) {
@@ -664,7 +665,9 @@ Vec3f SignedDistanceGrid::gradient(Vec3f p) const {
 
 SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, float reach) {
   validateMesh(mesh);
-  if (!(cellSize > 0.f) || !std::isfinite(cellSize)) throw InvalidArgument("cellSize", show(cellSize), "must be > 0");
+  // a blade is sampled at its slicer's spacing: its errors name that
+  const char* field = "MeshSlicerDesc.sampleSpacing";
+  if (!(cellSize > 0.f) || !std::isfinite(cellSize)) throw InvalidArgument(field, show(cellSize), "must be > 0");
   const WatertightReport report = checkWatertight(mesh);
   if (report.misorientedEdges > 0 || report.nonManifoldEdges > 0)
     throw InvalidArgument("MeshSlicerDesc.blade", report.reason,
@@ -693,7 +696,7 @@ SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, floa
 
   Box3d bounds;
   for (uint32_t index : mesh.indices) bounds.grow(toDouble(mesh.vertices[index]));
-  SignedDistanceGrid grid = gridAround(bounds, cellSize, (int)std::ceil(reach / cellSize) + 1);
+  SignedDistanceGrid grid = gridAround(bounds, cellSize, (int)std::ceil(reach / cellSize) + 1, field);
   const Vec3d lower = toDouble(grid.lower);
 #if defined(_OPENMP)
 #pragma omp parallel for schedule(dynamic, 1)

@@ -2,8 +2,11 @@
 
 #include <zlib.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdio>
+#include <memory>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace mpm::checkpoint {
@@ -27,6 +30,27 @@ std::string ioError(const std::string& what, const std::string& path) {
   return what + " '" + path + "': " + std::strerror(errno);
 }
 
+/// Checks a file's header against its `size` [bytes]: the magic, the version, and that the
+/// payload length it states is what the file holds. `head` holds the first
+/// min(size, kHeaderBytes) bytes; `where` starts each message (a file's path, or nothing).
+void checkHeader(const uint8_t* head, uint64_t size, const std::string& where) {
+  if (size < 8 || std::memcmp(head, kMagic, 8) != 0)
+    throw CheckpointError(Reason::NotACheckpoint, where + "not a checkpoint (its first bytes are not \"MPMCKPT\")");
+  if (size < kHeaderBytes)
+    throw CheckpointError(Reason::Truncated, where + "truncated: " + std::to_string(size) + " bytes, shorter than the " +
+                                                 std::to_string(kHeaderBytes) + "-byte header");
+  const uint32_t version = readAt<uint32_t>(head + 8);
+  if (version != kFormatVersion)
+    throw CheckpointError(Reason::Version, where + "format version " + std::to_string(version) +
+                                               ", this library reads " + std::to_string(kFormatVersion));
+  const uint64_t n = readAt<uint64_t>(head + 16);
+  if (n != size - kHeaderBytes)
+    throw CheckpointError(Reason::Truncated, where + "the header says " + std::to_string(n) +
+                                                 " bytes of payload, the file has " +
+                                                 std::to_string(size - kHeaderBytes) +
+                                                 (n > size - kHeaderBytes ? " (truncated)" : " (trailing bytes)"));
+}
+
 }  // namespace
 
 std::vector<uint8_t> Writer::finish() const {
@@ -42,20 +66,8 @@ std::vector<uint8_t> Writer::finish() const {
 }
 
 Reader::Reader(const uint8_t* file, size_t size) {
-  if (size < 8 || std::memcmp(file, kMagic, 8) != 0)
-    throw CheckpointError(Reason::NotACheckpoint, "not a checkpoint (its first bytes are not \"MPMCKPT\")");
-  if (size < kHeaderBytes)
-    throw CheckpointError(Reason::Truncated, "truncated: " + std::to_string(size) + " bytes, shorter than the " +
-                                                 std::to_string(kHeaderBytes) + "-byte header");
-  const uint32_t version = readAt<uint32_t>(file + 8);
-  if (version != kFormatVersion)
-    throw CheckpointError(Reason::Version, "format version " + std::to_string(version) + ", this library reads " +
-                                               std::to_string(kFormatVersion));
-  const uint64_t n = readAt<uint64_t>(file + 16);
-  if (n != size - kHeaderBytes)
-    throw CheckpointError(Reason::Truncated, "the header says " + std::to_string(n) + " bytes of payload, the file has " +
-                                                 std::to_string(size - kHeaderBytes) +
-                                                 (n > size - kHeaderBytes ? " (truncated)" : " (trailing bytes)"));
+  checkHeader(file, size, "");
+  const uint64_t n = size - kHeaderBytes;
   if (crc32Of(file + kHeaderBytes, (size_t)n) != readAt<uint32_t>(file + 12))
     throw CheckpointError(Reason::Checksum, "CRC-32 of the payload does not match the header: the file is corrupted");
   payload_ = file + kHeaderBytes;
@@ -113,13 +125,31 @@ void writeFileAtomically(const std::string& path, const std::vector<uint8_t>& by
 std::vector<uint8_t> readFile(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw CheckpointError(Reason::Io, ioError("cannot open", path));
-  std::vector<uint8_t> bytes;
-  uint8_t buf[1 << 16];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) bytes.insert(bytes.end(), buf, buf + n);
-  const bool failed = std::ferror(f) != 0;
-  std::fclose(f);
-  if (failed) throw CheckpointError(Reason::Io, ioError("cannot read", path));
+  const std::unique_ptr<std::FILE, int (*)(std::FILE*)> closer(f, std::fclose);
+  // its kind, size and header first: a device (/dev/zero), a pipe or a directory has no
+  // size to check and may never end, and a file whose header does not hold is not read
+  struct stat st;
+  if (::fstat(fileno(f), &st) != 0) throw CheckpointError(Reason::Io, ioError("cannot read", path));
+  if (!S_ISREG(st.st_mode))
+    throw CheckpointError(Reason::NotACheckpoint,
+                          "'" + path + "' is not a regular file (" +
+                              (S_ISDIR(st.st_mode)   ? "a directory"
+                               : S_ISCHR(st.st_mode) ? "a character device"
+                               : S_ISBLK(st.st_mode) ? "a block device"
+                               : S_ISFIFO(st.st_mode) ? "a pipe"
+                                                      : "a socket or other special file") +
+                              ")");
+  const auto readFailed = [&] {
+    return CheckpointError(Reason::Io, std::ferror(f) ? ioError("cannot read", path)
+                                                      : "'" + path + "' changed size while it was read");
+  };
+  const uint64_t size = (uint64_t)st.st_size;
+  std::vector<uint8_t> bytes((size_t)std::min<uint64_t>(size, kHeaderBytes));
+  if (std::fread(bytes.data(), 1, bytes.size(), f) != bytes.size()) throw readFailed();
+  checkHeader(bytes.data(), size, "'" + path + "': ");
+  bytes.resize((size_t)size);
+  const size_t rest = bytes.size() - kHeaderBytes;
+  if (std::fread(bytes.data() + kHeaderBytes, 1, rest, f) != rest || std::fgetc(f) != EOF) throw readFailed();
   return bytes;
 }
 
