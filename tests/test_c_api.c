@@ -363,6 +363,40 @@ static void batchOfScenes(void) {
   free(b);
 }
 
+/* While an advance runs every call on the scene returns MPM_ERROR_BUSY, naming the call;
+ * mpm_scene_cancel stops it: the fetch returns MPM_ERROR_CANCELLED and the scene is as
+ * before the advance (its time 0, its particles where they were). */
+static void busyAndCancelled(void) {
+  printf("--- busy during an advance, and cancelled ---\n");
+  mpm_scene_settings s = settings();
+  mpm_scene* scene = NULL;
+  CHECK(mpm_scene_create(&s, &scene) == MPM_OK, "%s", mpm_last_error());
+  if (!scene) return;
+  mpm_object_desc block;
+  mpm_object_desc_default(&block);
+  block.half_extents = (mpm_vec3){0.05f, 0.05f, 0.05f};
+  mpm_object_id id;
+  CHECK(mpm_scene_add_object(scene, &block, &id) == MPM_OK, "%s", mpm_last_error());
+  size_t n = 0, count = 0;
+  CHECK(mpm_scene_particle_count(scene, id, &n) == MPM_OK && n > 0, "%s", mpm_last_error());
+  mpm_vec3 *before = malloc(n * sizeof *before), *after = malloc(n * sizeof *after);
+  CHECK(mpm_scene_read_positions(scene, id, before, n, &count) == MPM_OK, "%s", mpm_last_error());
+  CHECK(mpm_scene_advance(scene, 1000.f) == MPM_OK, "%s", mpm_last_error()); /* minutes of substeps */
+  expectError(mpm_scene_read_positions(scene, id, after, n, &count), MPM_ERROR_BUSY, "a step is running");
+  double t = -1;
+  expectError(mpm_scene_time(scene, &t), MPM_ERROR_BUSY, "time");
+  CHECK(mpm_scene_cancel(scene) == MPM_OK, "%s", mpm_last_error());
+  expectError(mpm_scene_fetch_results(scene, NULL), MPM_ERROR_CANCELLED, "cancelled");
+  CHECK(mpm_scene_time(scene, &t) == MPM_OK && t == 0.0, "time %g after the cancelled advance", t);
+  CHECK(mpm_scene_read_positions(scene, id, after, n, &count) == MPM_OK, "%s", mpm_last_error());
+  CHECK(memcmp(before, after, n * sizeof *before) == 0, "the particles are where they were");
+  CHECK(mpm_scene_step(scene, 0.01f, NULL) == MPM_OK, "%s", mpm_last_error());
+  expectError(mpm_scene_cancel(NULL), MPM_ERROR_INVALID_ARGUMENT, "scene = NULL");
+  free(before);
+  free(after);
+  mpm_scene_release(scene);
+}
+
 int main(void) {
   /* --- errors before a scene exists: each names its field and value --- */
   mpm_scene* scene = NULL;
@@ -528,6 +562,7 @@ int main(void) {
 
   restingOnCompoundAndMeshShapes();
   batchOfScenes();
+  busyAndCancelled();
   printf(failures ? "test_c_api: %d FAILED\n" : "test_c_api: all passed\n", failures);
   return failures ? 1 : 0;
 }

@@ -260,6 +260,7 @@ TEST(SceneState, AFailedEnergyCheckPutsTheShapesBack) {
   SceneSettings s = settings(SolverType::MlsMpm);
   s.gravity = {0.f, 0.f, 0.f};
   s.energyCheck.enabled = true;
+  s.divergenceCheck.enabled = false;  // its volume bound would see this blow-up first
   s.substeps.fixedSubsteps = 1;
   Scene scene(s);
   ParticleObjectDesc spinning = block({0.f, 0.5f, 0.f});
