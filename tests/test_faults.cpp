@@ -222,7 +222,7 @@ TEST(Faults, AParticleFasterThanACellPerSubstepFailsTheAdvance) {
 
 // A kinematic tool driven at 1e4 m/s through a block under the default substep policy,
 // with the energy check and recovery on: no advance is accepted with the tissue collapsed.
-// Before, every particle ended with J = 0 and no error.
+// Before, each frame was accepted with particles at J <= 0 (measured: -1.2e-7 in the first).
 TEST(Faults, AToolAtTenKilometresPerSecondNeverLeavesCollapsedTissue) {
   SceneSettings s = boxSettings(1);
   s.energyCheck.enabled = true;
@@ -233,15 +233,11 @@ TEST(Faults, AToolAtTenKilometresPerSecondNeverLeavesCollapsedTissue) {
   tool.parts = {Geometry::sphere(0.04f)};
   tool.pose.position = {-0.2f, 0.3f, 0.f};
   tool.linearVelocity = {1e4f, 0.f, 0.f};
-  const ShapeId shape = scene.addShape(tool);
+  scene.addShape(tool);
   int failed = 0;
-  for (int frame = 0; frame < 4; ++frame) {
-    ShapeState st = scene.shapeState(shape);
-    st.pose.position = {frame % 2 ? 0.2f : -0.2f, 0.3f, 0.f};
-    st.linearVelocity = {frame % 2 ? -1e4f : 1e4f, 0.f, 0.f};
-    scene.setShapeState(shape, st);
+  for (int frame = 0; frame < 2; ++frame) {
     try {
-      scene.step(4e-5f);
+      scene.step(1e-3f);  // the tool passes through the block within the first frame
     } catch (const SimulationDiverged&) {
       ++failed;
       continue;
@@ -250,7 +246,7 @@ TEST(Faults, AToolAtTenKilometresPerSecondNeverLeavesCollapsedTissue) {
     ASSERT_TRUE(lo > kMinVolumeRatio && hi < kMaxVolumeRatio)
         << "frame " << frame << " accepted with J in [" << lo << ", " << hi << "]";
   }
-  std::printf("[ info ] tool at 1e4 m/s: %d of 4 advances failed\n", failed);
+  std::printf("[ info ] tool at 1e4 m/s: %d of 2 advances failed\n", failed);
 }
 
 // While an advance runs, a read from another thread is refused (StepInProgress) or sees a

@@ -9,12 +9,14 @@
 
 Settings and object dicts are those of a scene file (assets/scenes/scene.schema.json).
 Quaternions are (x, y, z, w), as in pybullet. Errors: InvalidArgument (a ValueError),
-CheckpointError, SimulationDiverged, BackendUnavailable, all subclasses of Error.
+CheckpointError, SimulationDiverged, BackendUnavailable, StepInProgress (a call while another
+thread steps the scene), AdvanceCancelled (Scene.cancel()), OutOfMemory (a MemoryError), all
+subclasses of Error.
 """
-from ._core import (BackendUnavailable, CheckpointError, CurveId, EnergyBalance, Error, InvalidArgument,
-                    ObjectId, Scene, SceneBatch, ShapeId, SimulationDiverged, SlicerId, StepReport,
-                    cuda_device_available)
+from ._core import (AdvanceCancelled, BackendUnavailable, CheckpointError, CurveId, EnergyBalance, Error,
+                    InvalidArgument, ObjectId, OutOfMemory, Scene, SceneBatch, ShapeId, SimulationDiverged,
+                    SlicerId, StepInProgress, StepReport, cuda_device_available)
 
-__all__ = ["BackendUnavailable", "CheckpointError", "CurveId", "EnergyBalance", "Error", "InvalidArgument",
-           "ObjectId", "Scene", "SceneBatch", "ShapeId", "SimulationDiverged", "SlicerId", "StepReport",
-           "cuda_device_available"]
+__all__ = ["AdvanceCancelled", "BackendUnavailable", "CheckpointError", "CurveId", "EnergyBalance", "Error",
+           "InvalidArgument", "ObjectId", "OutOfMemory", "Scene", "SceneBatch", "ShapeId", "SimulationDiverged",
+           "SlicerId", "StepInProgress", "StepReport", "cuda_device_available"]

@@ -89,8 +89,8 @@ E checkedEnum(int value, const std::vector<const char*>& names, const char* fiel
   return static_cast<E>(value);
 }
 
-mpm::Vec3f vec(mpm_vec3 v) { return {v.x, v.y, v.z}; }
-mpm_vec3 vec(mpm::Vec3f v) { return {v.x, v.y, v.z}; }
+inline mpm::Vec3f vec(mpm_vec3 v) { return {v.x, v.y, v.z}; }
+inline mpm_vec3 vec(mpm::Vec3f v) { return {v.x, v.y, v.z}; }
 inline mpm::ShapeState state(const mpm_body_state& s) {
   mpm::ShapeState r;
   r.pose.position = vec(s.pose.position);
@@ -103,7 +103,7 @@ inline mpm_body_state state(const mpm::ShapeState& s) {
   const mpm::Quat& q = s.pose.rotation;
   return {{vec(s.pose.position), {q.w, q.x, q.y, q.z}}, vec(s.linearVelocity), vec(s.angularVelocity)};
 }
-mpm_body_state state(const mpm::Pose& pose, mpm::Vec3f v, mpm::Vec3f w) { return state(mpm::ShapeState{pose, v, w}); }
+inline mpm_body_state state(const mpm::Pose& pose, mpm::Vec3f v, mpm::Vec3f w) { return state(mpm::ShapeState{pose, v, w}); }
 /// A description's pose and velocities (shapes, slicers, needles name them alike).
 template <class Desc>
 void placeBody(Desc& d, const mpm_body_state& s) {
@@ -112,12 +112,12 @@ void placeBody(Desc& d, const mpm_body_state& s) {
   d.linearVelocity = st.linearVelocity;
   d.angularVelocity = st.angularVelocity;
 }
-mpm_impulse impulse(const mpm::ShapeImpulse& j) { return {vec(j.linear), vec(j.angular)}; }
+inline mpm_impulse impulse(const mpm::ShapeImpulse& j) { return {vec(j.linear), vec(j.angular)}; }
 
-mpm::ParticleObjectId object(mpm_object_id id) { return {id.index, id.generation}; }
-mpm::ShapeId shape(mpm_shape_id id) { return {id.index, id.generation}; }
-mpm::SlicerId slicer(mpm_slicer_id id) { return {id.index, id.generation}; }
-mpm::CurveId curve(mpm_curve_id id) { return {id.index, id.generation}; }
+inline mpm::ParticleObjectId object(mpm_object_id id) { return {id.index, id.generation}; }
+inline mpm::ShapeId shape(mpm_shape_id id) { return {id.index, id.generation}; }
+inline mpm::SlicerId slicer(mpm_slicer_id id) { return {id.index, id.generation}; }
+inline mpm::CurveId curve(mpm_curve_id id) { return {id.index, id.generation}; }
 
 /// Copies `values` to a caller's buffer of `capacity` elements, each `width` floats.
 template <class T>
@@ -140,7 +140,7 @@ const std::vector<const char*> kGeometries = {"MPM_GEOMETRY_PLANE", "MPM_GEOMETR
                                               "MPM_GEOMETRY_CAPSULE", "MPM_GEOMETRY_CYLINDER", "MPM_GEOMETRY_MESH"};
 const std::vector<const char*> kContactModes = {"MPM_CONTACT_FRICTIONAL", "MPM_CONTACT_STICKY", "MPM_CONTACT_BONDED"};
 
-mpm_step_report report(const mpm::StepReport& r) { return {r.substeps, r.substepDt, r.halvings}; }
+inline mpm_step_report report(const mpm::StepReport& r) { return {r.substeps, r.substepDt, r.halvings}; }
 
 inline std::string show(float v) {
   char text[32];
@@ -187,7 +187,7 @@ auto renamed(const std::string& meshField, const std::string& cellField, F&& bui
 }
 
 /// The signed distance grid of the caller's mesh at `cell` [m] (0: dx / 2).
-std::shared_ptr<const mpm::SignedDistanceGrid> meshGrid(const mpm_triangle_mesh& m, float cell, float dx,
+inline std::shared_ptr<const mpm::SignedDistanceGrid> meshGrid(const mpm_triangle_mesh& m, float cell, float dx,
                                                         const std::string& meshField, const std::string& cellField) {
   if (!std::isfinite(cell) || cell < 0.f)
     throw mpm::InvalidArgument(cellField, show(cell), "must be a finite number >= 0 (0: half the scene's dx)");
@@ -198,7 +198,7 @@ std::shared_ptr<const mpm::SignedDistanceGrid> meshGrid(const mpm_triangle_mesh&
 }
 
 /// One part of a shape from the C fields (a one-primitive shape's or a compound's part).
-mpm::Geometry geometry(int type, mpm_vec3 halfExtents, float radius, float halfHeight, int axis,
+inline mpm::Geometry geometry(int type, mpm_vec3 halfExtents, float radius, float halfHeight, int axis,
                        const mpm_triangle_mesh& mesh, float meshCell, float dx, const std::string& field) {
   mpm::Geometry g;
   g.type = checkedEnum<mpm::GeometryType>(type, kGeometries, (field + "geometry").c_str());
@@ -224,7 +224,7 @@ inline mpm::ShapeDesc shapeBody(const mpm_shape_desc& s) {
 }
 
 /// `count` points at `points` (and as many velocities, or none); `field` names them.
-void points(const mpm_vec3* points, const mpm_vec3* velocities, size_t count, const std::string& field,
+inline void points(const mpm_vec3* points, const mpm_vec3* velocities, size_t count, const std::string& field,
             std::vector<mpm::Vec3f>& x, std::vector<mpm::Vec3f>& v) {
   if (count > 0 && !points)
     throw mpm::InvalidArgument(field + "points", "NULL", "must point to point_count = " + std::to_string(count) + " points");

@@ -62,7 +62,7 @@ class SceneBatchImpl {
   }
 
   void advance(const std::vector<float>& dt) {
-    if (stepping) throw Error("SceneBatch::advance: a step is running; call fetchResults() first");
+    if (stepping) throw StepInProgress("SceneBatch::advance: a step is running; call fetchResults() first");
     if (dt.size() != scenes.size())
       throw InvalidArgument("SceneBatch::advance dt", std::to_string(dt.size()) + " values",
                             "one per scene: the batch has " + std::to_string(scenes.size()));

@@ -140,7 +140,7 @@ class SceneImpl {
     const SubstepParams p = substepParams(settings, report.substepDt);
     for (int s = 0; s < substeps; ++s) {
       if (cancelRequested.load(std::memory_order_relaxed))
-        throw AdvanceCancelled("advance cancelled (Scene::cancel) after " + std::to_string(s) + " of " +
+        throw AdvanceCancelled("advance cancelled after " + std::to_string(s) + " of " +
                                std::to_string(substeps) + " substeps; the scene is as it was before the advance");
       backend->substep(p);
     }
