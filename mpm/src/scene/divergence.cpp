@@ -49,9 +49,9 @@ void checkParticles(const SimBackend& backend, const StepCheck& check, const Sce
   }
   if (!grid && d.enabled)  // MTLED flagged a node whose integration point's F is out of bounds
     throw SimulationDiverged(describeParticle(all, check.firstBadParticle, time) +
-                             ": an integration point whose strain depends on it has its volume ratio outside "
-                             "(kMinVolumeRatio, kMaxVolumeRatio) = (0.01, 100): the material collapsed or blew up "
-                             "(SceneSettings.divergenceCheck)");
+                             ": its volume ratio, or that of an integration point whose strain depends on it, is "
+                             "outside (kMinVolumeRatio, kMaxVolumeRatio) = (0.01, 100): the material collapsed or "
+                             "blew up (SceneSettings.divergenceCheck)");
   if (!tooFast) return;  // the kernels flagged only what the disabled volume check holds
   size_t fastest = 0;
   for (size_t i = 1; i < all.size(); ++i)

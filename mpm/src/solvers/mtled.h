@@ -74,9 +74,11 @@ MtledModel buildMtledModel(const MtledSettings& settings, const std::vector<Vec3
 /// Deformation gradient at each node, for the nodes at x (X in the reference): the
 /// volume-weighted mean of the F of the integration points whose strain depends on the node
 /// (those whose terms name it: the points around it), each F as the internal-force kernel
-/// forms it. A dropped node takes its carrier's.
+/// forms it. A dropped node takes its carrier's. `perPoint(p, F_p)`, if given, sees each
+/// point's F on the way (the step check holds the points' volume ratio with the nodes').
 std::vector<Mat3f> nodeDeformationGradients(const MtledModel& model, const std::vector<Vec3f>& x,
-                                            const std::vector<Vec3f>& X);
+                                            const std::vector<Vec3f>& X,
+                                            const std::function<void(size_t, const Mat3f&)>& perPoint = {});
 
 /// Integration cells over the box [lo, hi] (cells of about `cellSize`, fitted to the box),
 /// from 4^3 voxels per cell each inside or not per `inside` at its centre: each cell that
@@ -359,16 +361,23 @@ class MtledSystem final : private ExecOwner<Exec>, public ShapeBackend<Exec> {
       c.maxSpeed2 = std::max(c.maxSpeed2, dot(v[i], v[i]));
     }
     c.peakSpeed2 = c.maxSpeed2;
-    // the volume ratio where F lives, at the integration points: a point out of bounds
-    // flags the first node its strain depends on (SceneSettings.divergenceCheck)
-    if (c.firstBadParticle == 0xffffffffu)
-      for (size_t p = 0; p < model_.volumes.size(); ++p) {
-        const Mat3f F = kernels::pointDeformationGradient(p, x.data(), reference_.data(), model_.termStart.data(),
-                                                          model_.support.data(), model_.shapeGradients.data());
-        if (!volumeRatioSound(&F.m[0][0])) {
-          c.firstBadParticle = model_.support[model_.termStart[p]];
-          break;
-        }
+    // the volume ratio where F lives, at the integration points (a point out of bounds
+    // flags the first node its strain depends on), and at the nodes as readDeformationGradients
+    // gives it, their points' mean: points each sound but turned against each other can
+    // average to an inverted node (SceneSettings.divergenceCheck)
+    if (c.firstBadParticle != 0xffffffffu) return c;
+    uint32_t badPoint = 0xffffffffu;
+    const std::vector<Mat3f> nodeF = nodeDeformationGradients(model_, x, reference_, [&](size_t p, const Mat3f& F) {
+      if (badPoint == 0xffffffffu && !volumeRatioSound(&F.m[0][0])) badPoint = (uint32_t)p;
+    });
+    if (badPoint != 0xffffffffu) {
+      c.firstBadParticle = model_.support[model_.termStart[badPoint]];
+      return c;
+    }
+    for (size_t i = 0; i < nodeF.size(); ++i)
+      if (!volumeRatioSound(&nodeF[i].m[0][0])) {
+        c.firstBadParticle = (uint32_t)i;
+        break;
       }
     return c;
   }

@@ -293,12 +293,14 @@ IntegrationCells integrationCells(const std::function<bool(Vec3f)>& inside, Vec3
 }
 
 std::vector<Mat3f> nodeDeformationGradients(const MtledModel& m, const std::vector<Vec3f>& x,
-                                            const std::vector<Vec3f>& X) {
+                                            const std::vector<Vec3f>& X,
+                                            const std::function<void(size_t, const Mat3f&)>& perPoint) {
   std::vector<Mat3f> F(x.size());
   std::vector<float> weight(x.size(), 0.f);
   for (size_t p = 0; p < m.volumes.size(); ++p) {
     const Mat3f Fp = kernels::pointDeformationGradient(p, x.data(), X.data(), m.termStart.data(), m.support.data(),
                                                        m.shapeGradients.data());
+    if (perPoint) perPoint(p, Fp);
     for (uint32_t t = m.termStart[p]; t < m.termStart[p + 1]; ++t) {
       F[m.support[t]] = F[m.support[t]] + m.volumes[p] * Fp;
       weight[m.support[t]] += m.volumes[p];
