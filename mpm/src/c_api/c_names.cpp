@@ -69,8 +69,10 @@ std::string cName(std::string name, const std::string& call) {
   const char* to = nullptr;
   for (const auto& [from, c] : kPrefixes) {
     const std::string f = from;
+    // a prefix of the name (so name[f.size()] exists or is its end) that ends where a name part does
+    if (f.size() <= best || name.compare(0, f.size(), f) != 0) continue;
     const bool whole = name.size() == f.size() || f.back() == '.' || !std::isalnum((unsigned char)name[f.size()]);
-    if (f.size() > best && name.compare(0, f.size(), f) == 0 && whole) best = f.size(), to = c;
+    if (whole) best = f.size(), to = c;
   }
   return to ? to + snakeCase(name.substr(best)) : name;
 }
