@@ -5,8 +5,8 @@
 // Frictional with friction 0 for slip ends); the top one is moved with the ramp and its
 // force is the impulse the material gave it over a frame divided by the frame.
 //
-//   bench_accuracy --out bench/results/accuracy
-//   bench/plot_accuracy.py bench/results/accuracy.csv bench/results/accuracy.png
+//   bench_accuracy (default: bench/results/<machine>/accuracy, bench/machine.sh)
+//   bench/plot_accuracy.py OUT.csv OUT.png
 //
 // References: bonded compression, CalculiX extrapolated to zero mesh size
 // (tests/reference/cylinder_compression_extrapolated.csv); slip compression, the closed-form
@@ -53,7 +53,7 @@ struct Options {
   int threads = 1;
   double frame = 0.01;  ///< [s]; the forces are sampled every 0.1 s
   std::string referenceDir = std::string(MPM_SOURCE_DIR) + "/tests/reference";
-  std::string out = "bench/results/accuracy";
+  std::string out = mpm::bench::resultsStem("accuracy");
 };
 
 /// One of the four experiments.

@@ -8,7 +8,7 @@
 // and the box's resting height (the slab's top is at 0.102 m, so 0.132 m rests on it).
 //
 //   bench_embedding_realtime [--solvers MlsMpm,PbMpm] [--threads 1,2] [--seconds 3]
-//                            [--variants cfl0.3,default,every4] [--out bench/results/embedding_realtime]
+//                            [--variants cfl0.3,default,every4] [--out bench/results/<machine>/embedding_realtime]
 //
 // A variant is `default` (the solver's own cflNumber, the tissue advanced every Bullet
 // tick) or '+'-joined changes to it: `cflX` sets SubstepPolicy::cflNumber = X (cfl0.3: the
@@ -43,7 +43,7 @@ struct Options {
   std::vector<int> threads{1, 2};
   double seconds = 3;
   std::vector<std::string> variants{"cfl0.3", "default"};
-  std::string out = "bench/results/embedding_realtime";
+  std::string out = mpm::bench::resultsStem("embedding_realtime");
 };
 
 struct Variant {

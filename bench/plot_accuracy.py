@@ -6,7 +6,7 @@ middle: slip compression against the closed form; right: bonded extension agains
 0.5 cm curve (whose own point, compared with itself, is left out). Plotting only: needs matplotlib, which
 bench/run_accuracy.sh installs from PyPI into bench/.venv; the library never does.
 
-    bench/plot_accuracy.py bench/results/accuracy.csv bench/results/accuracy.png
+    bench/plot_accuracy.py bench/results/<machine>/accuracy.csv bench/results/<machine>/accuracy.png
 """
 import csv
 import sys

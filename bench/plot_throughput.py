@@ -3,7 +3,7 @@
 Fig. 3), from bench_throughput's CSV. Plotting only: needs matplotlib, which
 bench/run_throughput.sh installs from PyPI into bench/.venv; the library never does.
 
-    bench/plot_throughput.py bench/results/throughput.csv bench/results/throughput.png
+    bench/plot_throughput.py bench/results/<machine>/throughput.csv bench/results/<machine>/throughput.png
 """
 import csv
 import sys

@@ -10,7 +10,7 @@
 //   (d) a rigid sphere hitting a tissue slab at 5 and 10 m/s;
 //   (e) two bodies of stiffness ratio 1000 in contact, pressed by a plate.
 //
-//   bench_stability --out bench/results/stability
+//   bench_stability --out bench/results/<machine>/stability
 //
 // Writes <out>.md (header naming machine and command, the tables) and <out>.csv.
 #include <algorithm>
@@ -47,7 +47,7 @@ constexpr float kPlate = SeedCylinder::kPlateHalfThickness;  // plate half-thick
 struct Options {
   std::vector<std::string> solvers{"MlsMpm", "StandardMpm", "PbMpm", "Mtled"};
   int threads = 0;
-  std::string out = "bench/results/stability";
+  std::string out = mpm::bench::resultsStem("stability");
 };
 
 /// Outcome of one run.

@@ -273,7 +273,7 @@ struct Options {
   double maxOtherLoad = 0.1;
   int retries = 10;         ///< redos of one run on a busy machine before keeping a busy one
   double retryWait = 20;    ///< pause before a redo [s]
-  std::string out = "bench/results/throughput";  ///< path stem of the .md and .csv files
+  std::string out = mpm::bench::resultsStem("throughput");  ///< path stem of the .md and .csv files
   int bandwidthMiB = 256;      ///< array size of the bandwidth measurement; 0 skips it
   bool bandwidthOnly = false;  ///< measure the bandwidth, print it as CSV, and stop
   std::string trajectory;      ///< physics check: write the box's centre of mass per frame here
@@ -814,6 +814,9 @@ int main(int argc, char** argv) {
                  "time Scene::save / load (to this file) and their in-memory forms for MLS-MPM at the first"
                  " --sizes and --threads after --frames frames, --repeats times; no throughput run");
   CLI11_PARSE(app, argc, argv);
+  // a GPU run's results go to the GPU's folder
+  if (app.count("--out") == 0 && opt.backend == mpm::Backend::Cuda)
+    opt.out = mpm::bench::resultsStem("throughput_cuda", true);
   try {
     for (const std::string& name : opt.solvers) SolverCase::parse(name);
     for (const std::string& name : opt.variants) SceneVariant::parse(name);
