@@ -72,7 +72,7 @@ taichi_version="$("$py" -c 'import taichi as ti; print(".".join(map(str, ti.__ve
   echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//') ($(nproc) hardware threads)"
   echo "- Command: \`bench/run_peers.sh --sizes $sizes --threads $threads --repeats $repeats --grid $grid\`"
   echo "- Idle CPU before the runs (top): ${BENCH_IDLE:-?}%; load average (1 min): $(cut -d' ' -f1 /proc/loadavg)"
-  echo "- Ours: $(git -C "$repo" log -1 --format='%h %s' 2>/dev/null | cut -c1-80); Taichi $taichi_version, grid \`$grid\`"
+  echo "- Ours: $(git -C "$repo" log -1 --format='%h' 2>/dev/null); Taichi $taichi_version, grid \`$grid\`"
 } >"$run_dir/info.txt"
 
 echo "run_peers.sh: memory bandwidth" >&2
