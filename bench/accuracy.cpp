@@ -1,12 +1,12 @@
-// Accuracy against cost on the seed 004 cylinder (mpm::scenes::SeedCylinder, issue 5):
+// Accuracy against cost on the cylinder of Horton et al. 2010 (mpm::scenes::SeedCylinder):
 // every solver at three resolutions, 20 % compression with bonded ends and with slip
 // (frictionless) ends, 20 % extension and 20 % shear with bonded ends, over the T = 3 s ramp
 // u(t) = D (10 - 15 s + 6 s^2) s^3. The ends are two kinematic box plates (Bonded contact;
 // Frictional with friction 0 for slip ends); the top one is moved with the ramp and its
 // force is the impulse the material gave it over a frame divided by the frame.
 //
-//   bench_accuracy --out bench/results/accuracy
-//   bench/plot_accuracy.py bench/results/accuracy.csv bench/results/accuracy.png
+//   bench_accuracy (default: bench/results/<machine>/accuracy, bench/machine.sh)
+//   bench/plot_accuracy.py OUT.csv OUT.png
 //
 // References: bonded compression, CalculiX extrapolated to zero mesh size
 // (tests/reference/cylinder_compression_extrapolated.csv); slip compression, the closed-form
@@ -53,7 +53,7 @@ struct Options {
   int threads = 1;
   double frame = 0.01;  ///< [s]; the forces are sampled every 0.1 s
   std::string referenceDir = std::string(MPM_SOURCE_DIR) + "/tests/reference";
-  std::string out = "bench/results/accuracy";
+  std::string out = mpm::bench::resultsStem("accuracy");
 };
 
 /// One of the four experiments.
@@ -154,7 +154,7 @@ std::string pct(double v) { return std::isnan(v) ? "–" : num(100 * v, 2) + " %
 
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   std::ostringstream m;
-  m << info.header("Accuracy against cost: the seed 004 cylinder, every solver, CPU backend", MPM_BENCH_BUILD_TYPE);
+  m << info.header("Accuracy against cost: the cylinder of Horton et al. 2010, every solver, CPU backend", MPM_BENCH_BUILD_TYPE);
   m << "Scene `mpm::scenes::SeedCylinder`: R = 5 cm, H = 10 cm, decoupled Neo-Hookean mu = 1007 Pa, K = 50001 Pa"
        " (nu = 0.49), rho = 1000 kg/m^3, no gravity, between two kinematic box plates (Bonded contact; slip ends:"
        " Frictional, friction 0; MPM: contact band half a cell, so the node layer nearest each face follows the"
@@ -253,7 +253,7 @@ std::string curvesTable(const std::vector<Row>& rows) {
 
 int main(int argc, char** argv) {
   Options opt;
-  CLI::App app{"Seed 004 cylinder: force error against run time, every solver at three resolutions"};
+  CLI::App app{"Cylinder of Horton et al. 2010: force error against run time, every solver at three resolutions"};
   addSolversOption(app, opt.solvers);
   app.add_option("--cases", opt.cases, "experiments to run")
       ->delimiter(',')

@@ -1,4 +1,4 @@
-// Many scenes at once (issue 19 item 5): throughput of N copies of the README's embedding
+// Many scenes at once: throughput of N copies of the README's embedding
 // scene advanced by one SceneBatch against one copy stepped alone, per thread count.
 //
 // The scene: tests/embed_snippet.inc's tissue (9000 particles, dx 2 cm, Neo-Hookean
@@ -42,7 +42,7 @@ struct Options {
   float dt = 1.f / 240;
   std::string solver = "MlsMpm";
   Backend backend = Backend::Cpu;
-  std::string out = "bench/results/batch";
+  std::string out = mpm::bench::resultsStem("batch");
 };
 
 std::unique_ptr<Scene> embeddingScene(SolverType solver, Backend backend, int cpuThreads) {
@@ -165,6 +165,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--out", opt.out, "path stem; writes <out>.md (empty: print only)")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  if (app.count("--out") == 0 && opt.backend == Backend::Cuda) opt.out = resultsStem("batch_cuda", true);
   const SolverType solver = solverTypes().at(opt.solver);
 
   RunInfo info = RunInfo::now(argc, argv);

@@ -55,6 +55,20 @@ inline std::string cpuModel() {
   return "unknown";
 }
 
+/// This machine's results path stem for a benchmark, bench/results/<machine>/<bench>, the
+/// machine named by bench/machine.sh (run from the repository's root, as the stems are
+/// relative to it; "unknown" when it cannot run); gpu names the GPU instead of the CPU.
+inline std::string resultsStem(const std::string& bench, bool gpu = false) {
+  std::string machine;
+  if (FILE* p = popen(gpu ? "bench/machine.sh --gpu 2>/dev/null" : "bench/machine.sh 2>/dev/null", "r")) {
+    char text[128];
+    while (std::fgets(text, sizeof text, p)) machine += text;
+    pclose(p);
+  }
+  while (!machine.empty() && (machine.back() == '\n' || machine.back() == ' ')) machine.pop_back();
+  return "bench/results/" + (machine.empty() ? std::string("unknown") : machine) + "/" + bench;
+}
+
 inline std::string loadAverage() {
   std::ifstream in("/proc/loadavg");
   std::string one;

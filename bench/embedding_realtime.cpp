@@ -1,4 +1,4 @@
-// The README's embedding scene against the clock (issue 19, "the embedding scene at
+// The README's embedding scene against the clock ("the embedding scene at
 // E = 200 kPa: at least real time"): the user's Bullet world of tests/embed_world.inc (a
 // ground plane, a 0.5 kg box of 6 cm dropped from 0.2 m) with the tissue of
 // tests/embed_snippet.inc (9000 particles, decoupled Neo-Hookean E = 200 kPa, nu = 0.3,
@@ -8,11 +8,11 @@
 // and the box's resting height (the slab's top is at 0.102 m, so 0.132 m rests on it).
 //
 //   bench_embedding_realtime [--solvers MlsMpm,PbMpm] [--threads 1,2] [--seconds 3]
-//                            [--variants cfl0.3,default,every4] [--out bench/results/embedding_realtime]
+//                            [--variants cfl0.3,default,every4] [--out bench/results/<machine>/embedding_realtime]
 //
 // A variant is `default` (the solver's own cflNumber, the tissue advanced every Bullet
-// tick) or '+'-joined changes to it: `cflX` sets SubstepPolicy::cflNumber = X (cfl0.3: the
-// default before issue 19), `everyN` advances the tissue once every N Bullet ticks
+// tick) or '+'-joined changes to it: `cflX` sets SubstepPolicy::cflNumber = X (cfl0.3: a CFL
+// number of 0.3), `everyN` advances the tissue once every N Bullet ticks
 // (Coupler::setTissueInterval). Each solver and thread count runs every variant in turn.
 #include <btBulletDynamicsCommon.h>
 
@@ -43,7 +43,7 @@ struct Options {
   std::vector<int> threads{1, 2};
   double seconds = 3;
   std::vector<std::string> variants{"cfl0.3", "default"};
-  std::string out = "bench/results/embedding_realtime";
+  std::string out = mpm::bench::resultsStem("embedding_realtime");
 };
 
 struct Variant {

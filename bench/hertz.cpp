@@ -4,7 +4,7 @@
 // header naming the machine and the command, to <out>.md, the table to <out>.csv and the
 // averaged force-depth curves to <out>_curves.csv.
 //
-//   bench_hertz --resolutions 4,6,8 --out bench/results/hertz
+//   bench_hertz --resolutions 4,6,8 --out bench/results/<machine>/hertz
 //
 // The depth is resolved by a fraction of a cell at these resolutions (0.1 R is 0.4 dx at
 // R = 4 dx), which is why this is a benchmark and not a test: tests/test_hertz.cpp runs the
@@ -50,7 +50,7 @@ struct Options {
   int sensitivity = 0;  ///< R / dx of the loading-rate and slab-size rows; 0: none
   bool whole = false;   ///< the whole slab, not a quarter on mirror planes
   std::string runs;     ///< folder keeping each row's frames for reuse; "" = none
-  std::string out = "bench/results/hertz";  ///< path stem of the results
+  std::string out = mpm::bench::resultsStem("hertz");  ///< path stem of the results
 };
 
 /// One run of the scene and what it measured.
@@ -340,6 +340,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingDirectory);
   app.add_option("--out", opt.out, "path stem: writes <out>.md, <out>.csv and <out>_curves.csv")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
+  if (app.count("--out") == 0 && opt.backend == mpm::Backend::Cuda) opt.out = resultsStem("hertz", true);
 
   RunInfo info = RunInfo::now(argc, argv);
 

@@ -1,12 +1,12 @@
 #!/usr/bin/env python3
-"""Force error against CPU time on the seed 004 cylinder, one line per solver through its
+"""Force error against CPU time on the cylinder of Horton et al. 2010, one line per solver through its
 resolutions (the choice a user makes: the lowest line at the time they can spend), from
 bench_accuracy's CSV. Left: bonded compression against the CalculiX extrapolated curve;
 middle: slip compression against the closed form; right: bonded extension against MTLED's
 0.5 cm curve (whose own point, compared with itself, is left out). Plotting only: needs matplotlib, which
 bench/run_accuracy.sh installs from PyPI into bench/.venv; the library never does.
 
-    bench/plot_accuracy.py bench/results/accuracy.csv bench/results/accuracy.png
+    bench/plot_accuracy.py bench/results/<machine>/accuracy.csv bench/results/<machine>/accuracy.png
 """
 import csv
 import sys
@@ -56,7 +56,7 @@ def main(csv_path, png_path):
             axis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("relative L2 error of the force-time curve [%]")
     axes[0].legend(fontsize=7)
-    fig.suptitle("Seed 004 cylinder, CPU backend: error against cost (labels: MPM dx / MTLED node spacing)",
+    fig.suptitle("Cylinder of Horton et al. 2010, CPU backend: error against cost (labels: MPM dx / MTLED node spacing)",
                  fontsize=9)
     fig.tight_layout()
     fig.savefig(png_path)

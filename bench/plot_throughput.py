@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
-"""Time per frame against particle count, one line per solver (the layout of seed 000's
+"""Time per frame against particle count, one line per solver (the layout of CRESSim-MPM's
 Fig. 3), from bench_throughput's CSV. Plotting only: needs matplotlib, which
 bench/run_throughput.sh installs from PyPI into bench/.venv; the library never does.
 
-    bench/plot_throughput.py bench/results/throughput.csv bench/results/throughput.png
+    bench/plot_throughput.py bench/results/<machine>/throughput.csv bench/results/<machine>/throughput.png
 """
 import csv
 import sys

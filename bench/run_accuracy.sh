@@ -2,7 +2,7 @@
 # Builds bench_accuracy in Release, runs it (arguments are passed through; see
 # `bench_accuracy --help`) and plots error against CPU time to <out>.png (matplotlib from
 # PyPI in bench/.venv, made on first use; plotting only). Results go to
-# bench/results/accuracy.{md,csv,png} and accuracy_curves.csv unless --out says otherwise.
+# bench/results/<machine>/accuracy.{md,csv,png} and accuracy_curves.csv unless --out says otherwise.
 #
 #   bench/run_accuracy.sh                   # the full study (about an hour on 2 busy cores)
 #   bench/run_accuracy.sh --quick           # 1 cm only, every solver and case (~3 min)
@@ -22,4 +22,4 @@ build_bench bench_accuracy
 
 "$build/bench/bench_accuracy" "$@"
 
-plot_results run_accuracy.sh bench/results/accuracy bench/plot_accuracy.py "$@"
+plot_results run_accuracy.sh "$(results_dir)/accuracy" bench/plot_accuracy.py "$@"

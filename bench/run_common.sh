@@ -2,11 +2,16 @@
 #
 # build_bench TARGET: configures and builds TARGET in Release into $build
 #   (MPM_BENCH_BUILD_DIR, default build) with MPM_BENCH_JOBS jobs (default 2).
+# results_dir [--gpu]: this machine's results folder, bench/results/<machine> (bench/machine.sh).
 # plot_results NAME DEFAULT_OUT PLOT_SCRIPT ARGS...: finds the results' path stem as the
 #   benchmark took it (--out), makes the plotting environment bench/.venv (matplotlib from
 #   PyPI, first use only; plotting is never a dependency of the library) and writes
 #   <out>.png from <out>.csv.
 build="${MPM_BENCH_BUILD_DIR:-build}"
+
+results_dir() {
+  echo "bench/results/$("$repo/bench/machine.sh" "$@")"
+}
 
 build_bench() {
   cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release

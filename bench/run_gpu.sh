@@ -5,7 +5,9 @@
 # handed over as a tarball with the shared libraries they need beside them.
 #
 #   bench/run_gpu.sh --pack BUILD_DIR BINARIES.tar.xz [BASE_BUILD_DIR]   # here
-#   bench/run_gpu.sh BINARIES.tar.xz OUTDIR [TAICHI_SITE.tar.xz]         # there
+#   bench/run_gpu.sh BINARIES.tar.xz [OUTDIR [TAICHI_SITE.tar.xz]]       # there
+#
+# OUTDIR (or "-") defaults to bench/results/<gpu>/gpu_run, the GPU named by bench/machine.sh.
 #
 # --pack takes BUILD_DIR's bench_throughput and the test binaries with CUDA cases, and the
 # shared libraries they need that a bare CUDA image lacks (Bullet, assimp, libpng: what
@@ -50,9 +52,10 @@ if [[ "${1:-}" == "--pack" ]]; then
   exit 0
 fi
 tarball="$1"
-out="$2"
 taichi="${3:-}"
 repo="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+out="${2:--}"
+[[ "$out" == - ]] && out="$repo/bench/results/$("$repo/bench/machine.sh" --gpu)/gpu_run"
 mkdir -p "$out" /tmp/mpm_gpu
 tar -xJf "$tarball" -C /tmp/mpm_gpu
 bin=/tmp/mpm_gpu

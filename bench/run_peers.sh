@@ -5,7 +5,7 @@
 # idle CPU (bench/idle_check.sh), measures the memory bandwidth, checks that both run the
 # same physics (centre of mass over 250 frames at 8k particles), then times ours and Taichi
 # alternately, one process per run, `--repeats` times per particle count and thread count,
-# and writes bench/results/peers.{md,csv} with the medians and the ratio per row.
+# and writes bench/results/<machine>/peers.{md,csv} with the medians and the ratio per row.
 #
 #   bench/run_peers.sh                                   # 8k, 125k, 1M x 1, 2 threads x 3 runs:
 #                                                        # about 20-25 min on 2 idle cores
@@ -13,7 +13,7 @@
 #
 # Options: --sizes (box half-sizes, default 1,2.5,5), --threads (default 1,2), --repeats
 # (default 3), --grid (Taichi grid: dense, pointer or bitmasked; default dense), --out
-# (path stem, default bench/results/peers), --no-physics (skip the physics check).
+# (path stem, default bench/results/<machine>/peers, bench/machine.sh), --no-physics (skip the physics check).
 # Frames per run: 2.5e6 / particles, clamped to [5, 50] (50 at 8k, 20 at 125k, 5 at 1M),
 # the same for both, after untimed warm-up frames (ours 2; Taichi 1, which holds its JIT
 # compilation: only the first substep compiles).
@@ -30,7 +30,7 @@ sizes="1,2.5,5"
 threads="1,2"
 repeats=3
 grid=dense
-out=bench/results/peers
+out="bench/results/$(bench/machine.sh)/peers"
 physics=1
 while (($#)); do
   case "$1" in
@@ -72,7 +72,7 @@ taichi_version="$("$py" -c 'import taichi as ti; print(".".join(map(str, ti.__ve
   echo "- CPU: $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//') ($(nproc) hardware threads)"
   echo "- Command: \`bench/run_peers.sh --sizes $sizes --threads $threads --repeats $repeats --grid $grid\`"
   echo "- Idle CPU before the runs (top): ${BENCH_IDLE:-?}%; load average (1 min): $(cut -d' ' -f1 /proc/loadavg)"
-  echo "- Ours: $(git -C "$repo" log -1 --format='%h %s' 2>/dev/null | cut -c1-80); Taichi $taichi_version, grid \`$grid\`"
+  echo "- Ours: $(git -C "$repo" log -1 --format='%h' 2>/dev/null); Taichi $taichi_version, grid \`$grid\`"
 } >"$run_dir/info.txt"
 
 echo "run_peers.sh: memory bandwidth" >&2

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds bench_throughput in Release and runs it on an idle machine; arguments are passed
-# through (see `bench_throughput --help`). Results go to bench/results/throughput.{md,csv}
+# through (see `bench_throughput --help`). Results go to bench/results/<machine>/throughput.{md,csv}
+# (bench/machine.sh)
 # unless --out says otherwise, and the plot of time per frame against particle count to
 # <out>.png (matplotlib from PyPI in bench/.venv, made on first use; plotting only).
 #
@@ -24,4 +25,4 @@ wait_for_idle run_throughput.sh
 
 "$build/bench/bench_throughput" "$@"
 
-plot_results run_throughput.sh bench/results/throughput bench/plot_throughput.py "$@"
+plot_results run_throughput.sh "$(results_dir)/throughput" bench/plot_throughput.py "$@"

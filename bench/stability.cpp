@@ -1,16 +1,16 @@
-// Stability stress tests for every solver (issue 5, item 5). Each run has
+// Stability stress tests for every solver . Each run has
 // SceneSettings::energyCheck on, so a failure is a SimulationDiverged (energy growth,
 // non-finite state or particles leaving the grid) naming the object and the particle.
 //
 //   (a) the time step swept as a multiple k of the solver's stability estimate until the
-//       run fails: the seed 004 cylinder compressed 20 % in 0.3 s (ten times faster than
+//       run fails: the cylinder of Horton et al. 2010 compressed 20 % in 0.3 s (ten times faster than
 //       section 4, as the seed's own step study) and held 0.1 s;
 //   (b) near-incompressible material, nu = 0.49 and 0.499, on the same compression;
 //   (c) 80 % compression and back;
 //   (d) a rigid sphere hitting a tissue slab at 5 and 10 m/s;
 //   (e) two bodies of stiffness ratio 1000 in contact, pressed by a plate.
 //
-//   bench_stability --out bench/results/stability
+//   bench_stability --out bench/results/<machine>/stability
 //
 // Writes <out>.md (header naming machine and command, the tables) and <out>.csv.
 #include <algorithm>
@@ -36,7 +36,7 @@ using namespace mpm;
 using namespace mpm::bench;
 using scenes::SeedCylinder;
 
-// the seed 004 cylinder (scenes::SeedCylinder, tests/reference/README.md)
+// the cylinder of Horton et al. 2010 (scenes::SeedCylinder, tests/reference/README.md)
 constexpr double kHeight = SeedCylinder::kHeight;
 /// Bonded 20 % compression, CalculiX extrapolated to zero mesh size, at the end of the 3 s
 /// ramp (tests/reference/cylinder_compression_extrapolated.csv) [N].
@@ -47,7 +47,7 @@ constexpr float kPlate = SeedCylinder::kPlateHalfThickness;  // plate half-thick
 struct Options {
   std::vector<std::string> solvers{"MlsMpm", "StandardMpm", "PbMpm", "Mtled"};
   int threads = 0;
-  std::string out = "bench/results/stability";
+  std::string out = mpm::bench::resultsStem("stability");
 };
 
 /// Outcome of one run.
@@ -151,7 +151,7 @@ Forces pressWithPlate(Scene& scene, ShapeId top, float face0, Row& row, double f
   return forces;
 }
 
-/// The seed 004 cylinder between two bonded plates (scenes::SeedCylinder at dx and node
+/// The cylinder of Horton et al. 2010 between two bonded plates (scenes::SeedCylinder at dx and node
 /// spacing 1 cm, with the energy check), the top plate following `travel(t)` downward [m].
 struct Cylinder : SeedCylinder::Setup {
   Cylinder(SolverType s, int t) {
@@ -353,7 +353,7 @@ std::string markdownReport(const RunInfo& info, const std::vector<SweepResult>& 
        " done (negative: dissipated). Energy measured: kinetic + strain W(F) for MLS-MPM and standard"
        " MPM, kinetic + the strain energy of its integration points for MTLED; kinetic only for PB-MPM (its"
        " forces do not derive from a W(F) it reports).\n\n"
-       "Cylinder (a, b, c): seed 004's, R = 5 cm, H = 10 cm, decoupled Neo-Hookean mu = 1007 Pa, K = 50001 Pa"
+       "Cylinder (a, b, c): Horton et al. 2010's, R = 5 cm, H = 10 cm, decoupled Neo-Hookean mu = 1007 Pa, K = 50001 Pa"
        " (nu = 0.49), rho = 1000 kg/m^3, no gravity, between two kinematic bonded plates; MPM: dx = 1 cm,"
        " 8 particles per cell (6.2k particles); MTLED: node spacing 1 cm (891 nodes). Compression 20 %"
        " with the smooth ramp of eq. 43 in 0.3 s (ten times faster than section 4, as the seed's own step"

@@ -16,7 +16,7 @@ seconds="${MPM_FUZZ_SECONDS:-90}" seed="${MPM_FUZZ_SEED:-1}"
 
 # Every target: its name (tests/fuzz/NAME.cpp, built by mpm_fuzz_target in
 # tests/fuzz/CMakeLists.txt), its corpus folder and its inputs in CI (chosen from its rate
-# here so that each takes at most about 90 s: the README's Fuzzing table). A new loader's
+# here so that each takes at most about 90 s: docs/testing.md's Fuzzing table). A new loader's
 # target is one more line.
 table=(
   "fuzz_checkpoint  checkpoint 300000"

@@ -10,7 +10,7 @@
 # Determinism test's pinned trajectory hashes hold there and are checked), and
 # -fno-sanitize-recover=all, so any finding ends the test program and fails its test.
 # Only the test programs a tree runs are built. Which tests, and why: see ASAN_* and TSAN_*
-# below and README.md ("Sanitizers").
+# below and docs/testing.md ("Sanitizers").
 #
 #   scripts/sanitize.sh          both trees
 #   scripts/sanitize.sh asan     one tree (asan | tsan)
@@ -65,7 +65,7 @@ ASAN_EXCLUDE+="|Conservation\\.LinearMomentumOver1000Substeps/PbMpm" # 44 s
 ASAN_EXCLUDE+="|Walls\\.QuarterModelOnMirrorPlanesMovesAsTheWholeBody/(StandardMpm|PbMpm)"  # > 25, 16 s (MLS-MPM's, 24 s, runs)
 ASAN_EXCLUDE+="|Contact\\.FarShapesChangeNothingAndNearOnesStillAct/Cpu_PbMpm"  # 24 s
 ASAN_EXCLUDE+="|AddedMassLetsAPulledThreadDrawTheTissue"            # 36 s in Release
-ASAN_EXCLUDE+="|ThreadDrawnThroughTissue"                          # 55-65 s each (Sideways: fastest point 0.0385 m/s there, above its 2x bound: open, README Limits)
+ASAN_EXCLUDE+="|ThreadDrawnThroughTissue"                          # 55-65 s each (Sideways: fastest point 0.0385 m/s there, above its 2x bound: open, docs/limits.md)
 ASAN_EXCLUDE+="|ShapeContact\\.RestingBoxIsHeldByItsWeight"          # > 25 s
 ASAN_EXCLUDE+="|PbMpm\\.(StiffnessRisesWithIterations|LongRunAtLargeStepStaysBounded)"  # 21, > 25 s
 ASAN_EXCLUDE+="|BulletCoupling\\.|BulletMultiBodyChain"              # each > 25 s

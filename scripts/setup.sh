@@ -17,6 +17,7 @@ packages=(
   python3-dev python3-venv           # its headers, and the virtual environments of pip install . and test.sh
   python3-jsonschema                 # the scene files' schema test (tests/scene_files)
   clang                              # libFuzzer for the loaders' fuzz targets (scripts/fuzz.sh)
+  doxygen                            # the API reference (cmake --build build --target docs)
 )
 
 missing=()

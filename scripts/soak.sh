@@ -6,7 +6,8 @@
 #
 #   scripts/soak.sh [MINUTES [THREADS [SEED]]] [bench_soak options...]
 #   scripts/soak.sh                   # 30 minutes, cpuThreads 1..2, a seed from the clock
-#   scripts/soak.sh 2 2 7 --out soak.md
+#   scripts/soak.sh 2 2 7 --out /tmp/soak.md   # default: bench/results/<machine>/soak.md
+#                                                (bench/machine.sh)
 #   scripts/soak.sh 1 2 7 --scene 0x1f2e3d4c5b6a7980 --verbose   # one printed scene again
 #
 # Environment: MPM_SOAK_BUILD_DIR (default build), MPM_SOAK_JOBS (build jobs, default nproc).
@@ -20,4 +21,7 @@ scripts/setup.sh
 build="${MPM_SOAK_BUILD_DIR:-build}"
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release -DMPM_BUILD_BENCH=ON > /dev/null
 cmake --build "$build" -j "${MPM_SOAK_JOBS:-$(nproc)}" --target bench_soak
-exec "$build/bench/bench_soak" --minutes "$minutes" --threads "$threads" --seed "$seed" "$@"
+out=()
+[[ " $* " == *" --out "* || " $* " == *" --out="* ]] || out=(--out "bench/results/$(bench/machine.sh)/soak.md")
+mkdir -p "bench/results/$(bench/machine.sh)"
+exec "$build/bench/bench_soak" --minutes "$minutes" --threads "$threads" --seed "$seed" "${out[@]}" "$@"

@@ -8,6 +8,10 @@ scripts/setup.sh
 jobs="$(nproc)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DMPM_BUILD_TESTS=ON
 cmake --build build -j "$jobs"
+# The API reference (docs/Doxyfile.in): the target exists only where CMake found Doxygen
+command -v doxygen > /dev/null ||
+  { echo "test.sh: ERROR: doxygen not found (scripts/setup.sh installs it); no API reference" >&2; exit 1; }
+cmake --build build --target docs
 ctest --test-dir build --output-on-failure -j "$jobs" "$@"
 
 # The Python module (tests/python, pytest): built above when CMake found pybind11 and the

@@ -384,7 +384,7 @@ RestingBox restingBox(SolverType solver, int ticks) {
 // measured 0.1 mm). PB-MPM takes
 // one substep per advance, so its step grows fourfold, and its stiffness comes from its
 // step and iterations, not from E: it falls with the square of the step
-// (bench/results/stability.md: the cylinder's force 42.9, 10.7, 2.7, 0.67 times the
+// (bench/results/epyc-2core/stability.md: the cylinder's force 42.9, 10.7, 2.7, 0.67 times the
 // reference at k = 1, 2, 4, 8). The slab then carries the box 29.4 mm lower (measured:
 // 0.1254 -> 0.0961 m); that is the price of PB-MPM's cheap step, pinned here to 3 mm.
 TEST_P(TissueInterval, RestingBoxFeelsItsWeightAdvancedOncePerFrame) {

@@ -73,7 +73,7 @@ TEST(FreeFallAtCellCentres, ParticlesFallLikeTheRest) {
 // block: no particle gets below the wall's reach (y = -dx), and the centre sinks by the
 // settling into the wall band and the elastic sag only (measured 7.4 mm with one particle
 // per cell, 6.1 mm with 8; bound 20 mm, half the block). One point per cell integrates
-// stress poorly (softer: see README limits); 2 per axis is the default.
+// stress poorly (softer: see docs/limits.md); 2 per axis is the default.
 TEST(FreeFallAtCellCentres, ParticlesRestOnTheFloor) {
   for (int perAxis : {1, 2}) {
     SceneSettings s;

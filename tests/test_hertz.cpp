@@ -2,7 +2,7 @@
 // sphere of radius R pressed slowly into an elastic slab, the window-averaged force against
 // depth compared with F_H = 4/3 E* sqrt(R) d^1.5 for d <= 0.1 R, at the benchmark's coarsest
 // resolution, R = 4 dx, on the benchmark's scene (a quarter of an 8R x 8R x 4R slab on mirror
-// planes). There 0.1 R is 0.4 dx and the force is 30 % below Hertz; bench/results/hertz.md
+// planes). There 0.1 R is 0.4 dx and the force is 30 % below Hertz; bench/results/h100/hertz.md
 // shows the L2 error falling to 9.4 % at R/dx = 20 (run on a GPU). The tolerances below are
 // that table's R/dx = 4 row plus headroom for other compilers, CPUs and the CUDA backend's
 // float order (the CUDA row matched the CPU row to every printed digit).
@@ -26,11 +26,11 @@ class Hertz : public ::testing::TestWithParam<Backend> {
   }
 };
 
-// bench/results/hertz.md, R/dx = 4: L2 error over d = 0.02 R ... 0.1 R 29.7%, F/F_H - 1 at
+// bench/results/h100/hertz.md, R/dx = 4: L2 error over d = 0.02 R ... 0.1 R 29.7%, F/F_H - 1 at
 // d = 0.1 R -30.0% (depth lost 0.085 cells), standoff force at d = 0 6.2% of F_H(0.1 R).
-// With the contact reach of resting material 20.4 / -23.7 % (hertz_reach_cpu.md); with
+// With the contact reach of resting material 20.4 / -23.7 %; with
 // nodes beyond the material's surface out of contact (takesContact) 30.1 / -31.0 %, depth
-// lost 0.088 cells, standoff 2.1 % (hertz_tail_cpu.md): back to the first row's margin.
+// lost 0.088 cells, standoff 2.1 % (bench/results/epyc-2core/hertz.md): back to the first row's margin.
 constexpr double kL2Tolerance = 0.33;
 constexpr double kMaxDepthTolerance = 0.33;
 constexpr double kStandoffTolerance = 0.10;

@@ -433,10 +433,10 @@ TEST(SceneFileCheckpoint, ASceneWithNeedlesRefusesCheckpointsWithTheCouplersReas
 
 namespace {
 
-TEST(SceneFile, TheReadmeExampleLoads) {
-  // the first JSON block of the README's "Scene files and mpm_run", verbatim
-  const std::string readme = readText(mpm::test::sourcePath("README.md"));
-  const size_t section = readme.find("### Scene files and `mpm_run`");
+TEST(SceneFile, TheDocsExampleLoads) {
+  // the first JSON block of docs/api.md's "Scene files and mpm_run", verbatim
+  const std::string readme = readText(mpm::test::sourcePath("docs/api.md"));
+  const size_t section = readme.find("## Scene files and `mpm_run`");
   ASSERT_NE(section, std::string::npos);
   const size_t begin = readme.find("```json\n", section), end = readme.find("\n```", begin + 8);
   ASSERT_NE(begin, std::string::npos);

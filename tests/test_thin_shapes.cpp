@@ -127,8 +127,8 @@ TEST_P(ThinCapsules, RestOnTheTissueSurface) {
   // capsule for one frame, and how often that happens moves with rounding alone (the peak
   // over the last second 0.17 or 1.35 rad/s on standard MPM, r 0.2 dx, as the compiler
   // contracts multiply-adds differently; the mean 0.14 in both). The 0.2 g capsules still
-  // turn at 0.1-1.3 rad/s on average (r 0.2 and 0.4 dx, all radii on PB-MPM): open, in the
-  // README's limits.
+  // turn at 0.1-1.3 rad/s on average (r 0.2 and 0.4 dx, all radii on PB-MPM): open, in
+  // docs/limits.md.
   if (body == Body::Rigid2g) EXPECT_LT(r.spin, 0.5f) << "turns about its axis while resting";
 }
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Collects what bench/run_peers.sh measured into bench/results/peers.{md,csv}; also the
+"""Collects what bench/run_peers.sh measured into bench/results/<machine>/peers.{md,csv}; also the
 physics check (`compare`). Standard library only.
 
     tabulate.py table   RUN_DIR OUT_STEM   # RUN_DIR: ours_*.csv, taichi_*.json, bandwidth.csv, info.txt

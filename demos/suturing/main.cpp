@@ -17,7 +17,7 @@
 // the thread after it; pulled up over the wound the thread, held by the tissue
 // (ThreadCoupling::addedMass) and its eye pinned within 12 um (one frame 0.35 mm), draws the
 // gap from 7.25 mm to 1.88 mm at 10.55 s (0.77 N), where the pull stops and holds (1.91 mm at
-// the end; another build's rounding held at 10.20 s on 0.99 N and 2.61 mm; README, Suturing). --solver pb advances PB-MPM every 6 ticks
+// the end; another build's rounding held at 10.20 s on 0.99 N and 2.61 mm; docs/benchmarks.md, Suturing). --solver pb advances PB-MPM every 6 ticks
 // (--tissue-interval); --one-way and --no-added-mass show the couplings without the hold.
 #include <CLI/CLI.hpp>
 #include <btBulletDynamicsCommon.h>

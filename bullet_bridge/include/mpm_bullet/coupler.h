@@ -46,7 +46,7 @@
 /// each tick, or as a force over it), so at the end of the interval Bullet's body has it
 /// all, and the next advance takes the bodies' states again. Within an interval the
 /// scene's clock is ahead of Bullet's. What it costs in accuracy is measured in
-/// tests/test_bullet_coupling.cpp (TissueInterval) and bench/results/embedding_realtime.md.
+/// tests/test_bullet_coupling.cpp (TissueInterval) and bench/results/epyc-2core/embedding_realtime.md.
 #include <exception>
 #include <functional>
 #include <optional>

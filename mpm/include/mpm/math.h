@@ -37,7 +37,7 @@ MPM_HD Vec3f cross(Vec3f a, Vec3f b) {
 MPM_HD float norm(Vec3f a) { return sqrtf(dot(a, a)); }
 /// Component-wise product.
 MPM_HD Vec3f hadamard(Vec3f a, Vec3f b) { return {a.x * b.x, a.y * b.y, a.z * b.z}; }
-/// False for NaN and +-inf (works without <cmath> on device, and without fast-math).
+/// False for NaN and +-inf (works without `<cmath>` on device, and without fast-math).
 MPM_HD bool isFinite(float v) { return v - v == 0.f; }
 
 /// 3x3 matrix of floats, row-major: m[r][c].

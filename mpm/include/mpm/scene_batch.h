@@ -15,7 +15,7 @@
 /// CUDA: every scene's step starts at once (each scene has its own worker thread) and its
 /// kernels, sorts and copies go to its own stream, so small scenes' launches overlap on the
 /// device. `threads` does not limit them (16 copies of the embedding scene on an H200:
-/// 3.58x one scene, bench/results/batch_cuda_h200.md).
+/// 3.58x one scene, bench/results/h200/batch_cuda.md).
 #include <cstddef>
 #include <exception>
 #include <memory>

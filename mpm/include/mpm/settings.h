@@ -106,7 +106,7 @@ struct DomainSettings {
 
 /// The CFL number a solver takes when SubstepPolicy::cflNumber is 0, each a stated margin
 /// under the largest stable step bench_stability measured (its step sweep, seed 004's
-/// cylinder at nu = 0.49 compressed fast; bench/results/stability.md), in units of dx / c_p:
+/// cylinder at nu = 0.49 compressed fast; bench/results/epyc-2core/stability.md), in units of dx / c_p:
 /// - MLS-MPM 0.55: stable to 1.06, failing at 1.12 (a margin of 1.93x). Not more: at 0.6
 ///   the Python tests' mesh cube pushed 1.6 % off its box (bound 1 %) and their resting
 ///   sphere's 0.8-1.2 s average read +2.5 % (bound 2 %: it still rocks, less damped), and at
@@ -160,7 +160,7 @@ struct EnergyCheck {
   /// Allowed excess as a share of the energy supplied, > 0. Explicit blow-ups grow the
   /// energy geometrically (many times the supply within a few steps); the stable runs of
   /// bench_stability stayed at or below 0.017, but for the largest stable step of
-  /// MLS-MPM's sweep, at the edge of stability (0.27; bench/results/stability.md).
+  /// MLS-MPM's sweep, at the edge of stability (0.27; bench/results/epyc-2core/stability.md).
   float tolerance = 0.5f;
   /// Noise floor: energies below 1/2 M noiseSpeed^2 (M the scene's particle mass) are not
   /// judged, so a scene at rest does not fail on rounding [m/s], >= 0.
