@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Force error against CPU time on the seed 004 cylinder, one line per solver through its
+"""Force error against CPU time on the MTLED paper's cylinder (Joldes et al.), one line per solver through its
 resolutions (the choice a user makes: the lowest line at the time they can spend), from
 bench_accuracy's CSV. Left: bonded compression against the CalculiX extrapolated curve;
 middle: slip compression against the closed form; right: bonded extension against MTLED's
@@ -56,7 +56,7 @@ def main(csv_path, png_path):
             axis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("relative L2 error of the force-time curve [%]")
     axes[0].legend(fontsize=7)
-    fig.suptitle("Seed 004 cylinder, CPU backend: error against cost (labels: MPM dx / MTLED node spacing)",
+    fig.suptitle("Cylinder between plates, CPU backend: error against cost (labels: MPM dx / MTLED node spacing)",
                  fontsize=9)
     fig.tight_layout()
     fig.savefig(png_path)

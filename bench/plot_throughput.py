@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Time per frame against particle count, one line per solver (the layout of seed 000's
+"""Time per frame against particle count, one line per solver (the layout of CRESSim-MPM's
 Fig. 3), from bench_throughput's CSV. Plotting only: needs matplotlib, which
 bench/run_throughput.sh installs from PyPI into bench/.venv; the library never does.
 

@@ -5,7 +5,7 @@
 //
 //   bench_throughput --sizes 1,2.5 --threads 1,2 --frames 50 --out /tmp/throughput
 //
-// Scene variants (--variants) make the pairs of issue 6 item 3, "pay only for what a scene
+// Scene variants (--variants) make pairs that check "pay only for what a scene
 // uses": far-shapes (four kinematic shapes in the domain's top corners, far from every
 // particle), big-domain (the domain 8x larger in node count, the box the same), neo-hookean
 // (the other elastic law), many-shapes (100 small kinematic spheres resting on the box; -400:
@@ -122,7 +122,7 @@ struct SceneVariant {
       scene.addShape(d);
     }
   }
-  /// many-shapes, many-shapes-400 (issue 19, "a 100-link thread is 100 bodies"): 10 x 10
+  /// many-shapes, many-shapes-400 (a 100-link thread is 100 bodies): 10 x 10
   /// (20 x 20) kinematic spheres in a square pattern over the box's top face, a tenth of a
   /// cell into it. Radius 1.5 dx where the pattern leaves room (0.4 of its pitch otherwise:
   /// 0.4 dx at 8000 particles, 1 dx at 125k); one under 0.75 dx reaches the grid as 0.75 dx
@@ -215,7 +215,7 @@ constexpr size_t kLargeRunParticles = 500000;      // above this, --frames-large
 
 /// A solver as the benchmark runs it: MLS-MPM and standard MPM take CressimBench's 10
 /// substeps of 0.002 s per frame; PB-MPM one step of 0.02 s with `iterations` iterations
-/// (seed 000, section III-D).
+/// (CRESSim-MPM, section III-D).
 struct SolverCase {
   std::string name;  ///< as given on the command line: mls, standard, pb<iterations>
   mpm::SolverType type = mpm::SolverType::MlsMpm;
@@ -540,7 +540,7 @@ std::string pairsTable(const std::vector<Row>& rows) {
        "- thread: a thread of 100 dynamic segments (about 0.9 dx each) lying in seven rows on the box's top"
        " face, following its fall and sinking into it at 0.1 dx/s\n"
        "- many-shapes, many-shapes-400: 100 (400) small kinematic spheres resting on the box's top"
-       " face, given its free fall every frame (issue 19: a 100-link thread is 100 bodies); the cost"
+       " face, given its free fall every frame (a 100-link thread is 100 bodies); the cost"
        " of contact with many shapes at once (the contact pass, the push-out in G2P, the material"
        " centroids in P2G, the shapes' upload each frame).\n\n";
   return t.str();
@@ -630,7 +630,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " fixed corotated, E = 5e5, nu = 0.4; gravity (0, -1, 0). MLS-MPM and standard MPM take "
     << CressimBench::kSubstepsPerFrame << " substeps per " << CressimBench::kFrameDt
     << " s frame; PB-MPM one step of " << CressimBench::kFrameDt
-    << " s with 10 or 20 iterations (seed 000, section III-D).\n\n";
+    << " s with 10 or 20 iterations (CRESSim-MPM, section III-D).\n\n";
   m << "Method: each run builds a fresh scene, steps " << kWarmupFrames
     << " untimed warm-up frames, then times `frames` calls of `Scene::step(" << CressimBench::kFrameDt
     << ")` (" << opt.frames << " frames; " << opt.framesLarge << " above " << kLargeRunParticles
@@ -642,7 +642,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
        " particle-iterations (each iteration is a full P2G, grid update and G2P).\n"
        "- sort / P2G / grid / G2P %: the library's `StageTimings` (sort: binning particles into"
        " grid blocks, activating blocks, the per-frame reorder; P2G includes setting the nodes and, run in its"
-       " pass since session 27, the grid update (velocity, gravity, walls: the grid column is 0 without mirror"
+       " pass, the grid update (velocity, gravity, walls: the grid column is 0 without mirror"
        " planes) and PB-MPM's G2P of every cycle but its last; G2P includes the F update), summed over the"
        " repeats, as shares of"
        " the timed wall time; other: the rest (the step's worker-thread start, end-of-step check).\n"
@@ -726,7 +726,7 @@ int writeTrajectory(const Options& opt) {
   return 0;
 }
 
-/// Checkpoint cost (issue 14): MLS-MPM at the first size and thread count after --frames
+/// Checkpoint cost: MLS-MPM at the first size and thread count after --frames
 /// frames; --repeats saves to the file and loads from it (and the same in memory), medians
 /// of wall and process CPU time, and the file's size.
 int timeCheckpoint(const Options& opt) {
