@@ -56,7 +56,7 @@ ASAN_TARGETS=(test_constitutive test_free_fall test_conservation test_walls test
               test_checkpoint test_cutting test_suturing test_suturing_bullet test_c_api test_faults)
 ASAN_INCLUDE="."
 ASAN_EXCLUDE="_NOT_BUILT$"                                         # programs not built here
-ASAN_EXCLUDE+="|SelfWeight|Hertz|ThinCapsules|CylinderBetweenPlates"       # their programs are not built
+ASAN_EXCLUDE+="|SelfWeight|Hertz|ThinCapsules|CylinderBetweenPlates" # their programs are not built
 ASAN_EXCLUDE+="|FloorSweep|LargeGround"                            # test_floor: each > 25 s
 ASAN_EXCLUDE+="|FreeFall\\.CentreOfMassFollowsParabola/PbMpm"        # 74 s
 ASAN_EXCLUDE+="|Conservation\\.LinearMomentumOver1000Substeps/PbMpm" # 44 s
