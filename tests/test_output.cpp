@@ -341,7 +341,7 @@ TEST(ScenePictures, CapsulesCylindersAndMeshesAreDrawn) {
   EXPECT_TRUE(looksBlue(cylinder)) << cylinder.r << " " << cylinder.g << " " << cylinder.b;
   EXPECT_TRUE(looksGreen(hull)) << hull.r << " " << hull.g << " " << hull.b;
   EXPECT_TRUE(looksRed(triangles)) << triangles.r << " " << triangles.g << " " << triangles.b;
-  // the capsule's caps: 0.07 m above its centre is inside it, 0.09 m is not
+  // the capsule's cap: 0.065 m above its centre is inside it (its top at 0.07 m), 0.09 m is not
   const auto row = [](double y) { return (int)(120 - 120 / std::tan(20 * M_PI / 180) * y / 1.2); };
   EXPECT_TRUE(looksRed(pixelAt(image, camera, column(-0.36), row(0.065))));
   for (double x : {-0.24, 0.0, 0.24}) {  // between the bodies
