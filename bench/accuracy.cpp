@@ -1,6 +1,7 @@
-// Accuracy against cost on the cylinder of Horton et al. 2010 (mpm::scenes::SeedCylinder):
-// every solver at three resolutions, 20 % compression with bonded ends and with slip
-// (frictionless) ends, 20 % extension and 20 % shear with bonded ends, over the T = 3 s ramp
+// Accuracy against cost on the cylinder of Horton et al. 2010 (
+// mpm::scenes::CylinderBetweenPlates): every solver at three resolutions, 20 %
+// compression with bonded ends and with slip (frictionless) ends, 20 % extension and 20 %
+// shear with bonded ends, over the T = 3 s ramp
 // u(t) = D (10 - 15 s + 6 s^2) s^3. The ends are two kinematic box plates (Bonded contact;
 // Frictional with friction 0 for slip ends); the top one is moved with the ramp and its
 // force is the impulse the material gave it over a frame divided by the frame.
@@ -36,8 +37,8 @@ namespace {
 
 using namespace mpm;
 using namespace mpm::bench;
-using scenes::SeedCylinder;
-using Loading = SeedCylinder::Loading;
+using scenes::CylinderBetweenPlates;
+using Loading = CylinderBetweenPlates::Loading;
 
 const std::vector<std::string> kCaseNames{"compression-bonded", "compression-slip", "extension-bonded",
                                           "shear-bonded"};
@@ -80,7 +81,7 @@ struct Row {
   double resolution = 0;  ///< [cm]
   bool ok = false;
   std::string message;    ///< why it stopped, if it did
-  SeedCylinder::Run run;
+  CylinderBetweenPlates::Run run;
   double l2Error = std::nan("");     ///< sqrt(sum (F - F_ref)^2 / sum F_ref^2) over 0.1 s .. 3 s
   double finalError = std::nan("");  ///< F(T) / F_ref(T) - 1
   double referenceFinal = std::nan("");
@@ -111,30 +112,30 @@ struct Row {
 void compare(Row& row, const std::vector<std::vector<double>>& ref, int column) {
   double diff2 = 0, ref2 = 0;
   for (size_t i = 0; i < row.run.time.size(); ++i) {
-    const double expected = SeedCylinder::at(ref[0], ref[column], row.run.time[i]);
+    const double expected = CylinderBetweenPlates::at(ref[0], ref[column], row.run.time[i]);
     if (std::isnan(expected)) throw Error("no reference value at t = " + num(row.run.time[i], 3));
     diff2 += (row.run.axialForce[i] - expected) * (row.run.axialForce[i] - expected);
     ref2 += expected * expected;
   }
   row.l2Error = std::sqrt(diff2 / ref2);
-  row.referenceFinal = SeedCylinder::at(ref[0], ref[column], SeedCylinder::kRampTime);
+  row.referenceFinal = CylinderBetweenPlates::at(ref[0], ref[column], CylinderBetweenPlates::kRampTime);
   row.finalError = row.finalAxial() / row.referenceFinal - 1;
 }
 
 Row runOne(const Options& opt, const std::string& solver, const Case& c, int cellsOverHeight) {
-  const double resolutionCm = 100 * SeedCylinder::kHeight / cellsOverHeight;
+  const double resolutionCm = 100 * CylinderBetweenPlates::kHeight / cellsOverHeight;
   Row row;
   row.solver = solver;
   row.caseName = c.name;
   row.resolution = resolutionCm;
-  SeedCylinder::Setup setup;
+  CylinderBetweenPlates::Setup setup;
   setup.solver = solverTypes().at(solver);
   setup.resolution = resolutionCm / 100;
   setup.ends = c.ends;
   setup.threads = opt.threads;
   try {
     double reported = 0;
-    row.run = SeedCylinder::run(setup, c.loading, opt.frame, 0.1, [&](double t) {
+    row.run = CylinderBetweenPlates::run(setup, c.loading, opt.frame, 0.1, [&](double t) {
       if (t < reported + 0.5) return;
       reported = t;
       std::fprintf(stderr, "  ... t = %.2f s\n", t);
@@ -142,7 +143,7 @@ Row runOne(const Options& opt, const std::string& solver, const Case& c, int cel
     row.ok = row.run.time.size() >= 30;
     if (!row.ok) row.message = "fewer samples than the 30 reference times";
     if (!c.referenceFile.empty())
-      compare(row, SeedCylinder::readCsv(opt.referenceDir + "/" + c.referenceFile), c.referenceColumn);
+      compare(row, CylinderBetweenPlates::readCsv(opt.referenceDir + "/" + c.referenceFile), c.referenceColumn);
   } catch (const std::exception& e) {
     row.ok = false;
     row.message = e.what();
@@ -154,8 +155,8 @@ std::string pct(double v) { return std::isnan(v) ? "–" : num(100 * v, 2) + " %
 
 std::string markdownReport(const RunInfo& info, const Options& opt, const std::vector<Row>& rows) {
   std::ostringstream m;
-  m << info.header("Accuracy against cost: the cylinder of Horton et al. 2010, every solver, CPU backend", MPM_BENCH_BUILD_TYPE);
-  m << "Scene `mpm::scenes::SeedCylinder`: R = 5 cm, H = 10 cm, decoupled Neo-Hookean mu = 1007 Pa, K = 50001 Pa"
+  m << info.header("Accuracy against cost: the cylinder between plates, every solver, CPU backend", MPM_BENCH_BUILD_TYPE);
+  m << "Scene `mpm::scenes::CylinderBetweenPlates`: R = 5 cm, H = 10 cm, decoupled Neo-Hookean mu = 1007 Pa, K = 50001 Pa"
        " (nu = 0.49), rho = 1000 kg/m^3, no gravity, between two kinematic box plates (Bonded contact; slip ends:"
        " Frictional, friction 0; MPM: contact band half a cell, so the node layer nearest each face follows the"
        " plate, ContactParams::band). The top plate follows u(t) = D (10 − 15 s + 6 s²) s³, s = t / T, T = 3 s,"
@@ -171,7 +172,7 @@ std::string markdownReport(const RunInfo& info, const Options& opt, const std::v
     << opt.threads << " CPU thread" << (opt.threads == 1 ? "" : "s") << " per run (0 = all).\n\n"
     << "Errors: *L2* = sqrt(Σ (F − F_ref)² / Σ F_ref²) over t = 0.1, 0.2, ..., 3 s of the axial force; *final* ="
        " F(3 s) / F_ref(3 s) − 1 (negative: softer). References: bonded compression, CalculiX extrapolated to zero"
-       " mesh size (" << num(SeedCylinder::kBondedFinalForce, 4)
+       " mesh size (" << num(CylinderBetweenPlates::kBondedFinalForce, 4)
     << " N at 3 s, ± 0.6 %); slip compression, the closed-form homogeneous uniaxial solution (−5.9964 N at 3 s);"
        " bonded extension, MTLED's curve at 0.5 cm (4.6828 N at 3 s; MTLED converges to it from above and lies"
        " within 0.7 % of a CalculiX extension reference held outside the repository, so MTLED's own 0.5 cm row"
@@ -253,7 +254,7 @@ std::string curvesTable(const std::vector<Row>& rows) {
 
 int main(int argc, char** argv) {
   Options opt;
-  CLI::App app{"Cylinder of Horton et al. 2010: force error against run time, every solver at three resolutions"};
+  CLI::App app{"Cylinder between plates: force error against run time, every solver at three resolutions"};
   addSolversOption(app, opt.solvers);
   app.add_option("--cases", opt.cases, "experiments to run")
       ->delimiter(',')

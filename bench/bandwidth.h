@@ -1,6 +1,6 @@
 #pragma once
 // Memory bandwidth of this machine, measured in the benchmark's own run so that the
-// achieved bytes per second of a step can be set against it . Two
+// achieved bytes per second of a step can be set against it (the roofline of bench_throughput). Two
 // STREAM-like kernels over float arrays far larger than the last-level cache:
 //
 //   triad:  a[i] = b[i] + s c[i]   (STREAM's triad; counted as 12 bytes per element: read b

@@ -1,4 +1,4 @@
-// Many scenes at once: throughput of N copies of the README's embedding
+// Many scenes at once (SceneBatch): throughput of N copies of the README's embedding
 // scene advanced by one SceneBatch against one copy stepped alone, per thread count.
 //
 // The scene: tests/embed_snippet.inc's tissue (9000 particles, dx 2 cm, Neo-Hookean

@@ -1,5 +1,5 @@
-// The README's embedding scene against the clock ("the embedding scene at
-// E = 200 kPa: at least real time"): the user's Bullet world of tests/embed_world.inc (a
+// The README's embedding scene against the clock (the aim: the embedding scene at
+// E = 200 kPa at least real time): the user's Bullet world of tests/embed_world.inc (a
 // ground plane, a 0.5 kg box of 6 cm dropped from 0.2 m) with the tissue of
 // tests/embed_snippet.inc (9000 particles, decoupled Neo-Hookean E = 200 kPa, nu = 0.3,
 // dx = 2 cm), stepped as the README does, stepSimulation(1/60, 10, 1/240), for `--seconds`
@@ -11,8 +11,8 @@
 //                            [--variants cfl0.3,default,every4] [--out bench/results/<machine>/embedding_realtime]
 //
 // A variant is `default` (the solver's own cflNumber, the tissue advanced every Bullet
-// tick) or '+'-joined changes to it: `cflX` sets SubstepPolicy::cflNumber = X (cfl0.3: a CFL
-// number of 0.3), `everyN` advances the tissue once every N Bullet ticks
+// tick) or '+'-joined changes to it: `cflX` sets SubstepPolicy::cflNumber = X (cfl0.3: the
+// one default of every solver in earlier versions), `everyN` advances the tissue once every N Bullet ticks
 // (Coupler::setTissueInterval). Each solver and thread count runs every variant in turn.
 #include <btBulletDynamicsCommon.h>
 

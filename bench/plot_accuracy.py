@@ -56,7 +56,7 @@ def main(csv_path, png_path):
             axis.set_minor_formatter(NullFormatter())
     axes[0].set_ylabel("relative L2 error of the force-time curve [%]")
     axes[0].legend(fontsize=7)
-    fig.suptitle("Cylinder of Horton et al. 2010, CPU backend: error against cost (labels: MPM dx / MTLED node spacing)",
+    fig.suptitle("Cylinder between plates, CPU backend: error against cost (labels: MPM dx / MTLED node spacing)",
                  fontsize=9)
     fig.tight_layout()
     fig.savefig(png_path)

@@ -1,10 +1,10 @@
-// Stability stress tests for every solver . Each run has
+// Stability stress tests for every solver. Each run has
 // SceneSettings::energyCheck on, so a failure is a SimulationDiverged (energy growth,
 // non-finite state or particles leaving the grid) naming the object and the particle.
 //
 //   (a) the time step swept as a multiple k of the solver's stability estimate until the
 //       run fails: the cylinder of Horton et al. 2010 compressed 20 % in 0.3 s (ten times faster than
-//       section 4, as the seed's own step study) and held 0.1 s;
+//       section 4, as the paper's own step study) and held 0.1 s;
 //   (b) near-incompressible material, nu = 0.49 and 0.499, on the same compression;
 //   (c) 80 % compression and back;
 //   (d) a rigid sphere hitting a tissue slab at 5 and 10 m/s;
@@ -34,15 +34,15 @@ namespace {
 
 using namespace mpm;
 using namespace mpm::bench;
-using scenes::SeedCylinder;
+using scenes::CylinderBetweenPlates;
 
-// the cylinder of Horton et al. 2010 (scenes::SeedCylinder, tests/reference/README.md)
-constexpr double kHeight = SeedCylinder::kHeight;
+// the MTLED paper's cylinder (scenes::CylinderBetweenPlates, tests/reference/README.md)
+constexpr double kHeight = CylinderBetweenPlates::kHeight;
 /// Bonded 20 % compression, CalculiX extrapolated to zero mesh size, at the end of the 3 s
 /// ramp (tests/reference/cylinder_compression_extrapolated.csv) [N].
-constexpr double kReferenceForce = SeedCylinder::kBondedFinalForce;
+constexpr double kReferenceForce = CylinderBetweenPlates::kBondedFinalForce;
 constexpr float kDx = 0.01f;  // grid cell (MPM) and node spacing (MTLED) [m]
-constexpr float kPlate = SeedCylinder::kPlateHalfThickness;  // plate half-thickness [m]
+constexpr float kPlate = CylinderBetweenPlates::kPlateHalfThickness;  // plate half-thickness [m]
 
 struct Options {
   std::vector<std::string> solvers{"MlsMpm", "StandardMpm", "PbMpm", "Mtled"};
@@ -89,10 +89,10 @@ ShapeDesc plate(float halfWidth, float faceY, bool below, ContactMode mode, floa
   return scenes::plate(halfWidth, kPlate, faceY, below, contact);
 }
 
-Material cylinderMaterial(double nu) { return SeedCylinder::material(nu); }
-const double kSeedNu = SeedCylinder::seedPoissonRatio();
-double waveSpeed(const Material& m) { return SeedCylinder::waveSpeed(m); }
-double smoothRamp(double s) { return SeedCylinder::smoothRamp(s); }
+Material cylinderMaterial(double nu) { return CylinderBetweenPlates::material(nu); }
+const double kSeedNu = CylinderBetweenPlates::seedPoissonRatio();
+double waveSpeed(const Material& m) { return CylinderBetweenPlates::waveSpeed(m); }
+double smoothRamp(double s) { return CylinderBetweenPlates::smoothRamp(s); }
 
 /// Runs `frames` of length `frame`, calling `drive(t, frame)` before and `sample(t)` after
 /// each; fills the row's outcome, energy excess and counts.
@@ -151,17 +151,17 @@ Forces pressWithPlate(Scene& scene, ShapeId top, float face0, Row& row, double f
   return forces;
 }
 
-/// The cylinder of Horton et al. 2010 between two bonded plates (scenes::SeedCylinder at dx and node
+/// The MTLED paper's cylinder between two bonded plates (scenes::CylinderBetweenPlates at dx and node
 /// spacing 1 cm, with the energy check), the top plate following `travel(t)` downward [m].
-struct Cylinder : SeedCylinder::Setup {
+struct Cylinder : CylinderBetweenPlates::Setup {
   Cylinder(SolverType s, int t) {
     solver = s;
     threads = t;
     resolution = 0.01;  // kDx
     energyCheck = true;
   }
-  SceneSettings settings() const { return SeedCylinder::settings(*this); }
-  SeedCylinder::Parts build(Scene& scene) const { return SeedCylinder::build(scene, *this); }
+  SceneSettings settings() const { return CylinderBetweenPlates::settings(*this); }
+  CylinderBetweenPlates::Parts build(Scene& scene) const { return CylinderBetweenPlates::build(scene, *this); }
 
   /// Runs the plate motion in frames of `frame` seconds.
   Forces run(Row& row, double frame, double duration, double average,
@@ -240,7 +240,7 @@ Row compressAndBack(SolverType solver, int threads) {
     return kDepth * (t < kRamp ? smoothRamp(t / kRamp) : smoothRamp((2 * kRamp - t) / kRamp));
   };
   Scene scene(c.settings());
-  const SeedCylinder::Parts parts = c.build(scene);
+  const CylinderBetweenPlates::Parts parts = c.build(scene);
   const Forces f = pressWithPlate(scene, parts.top, (float)kHeight, row, 0.005, 2 * kRamp + 0.05, 0.05, travel);
   // back at the start, a body still held by both plates spans H again and pushes back little
   std::vector<Vec3f> x;
@@ -356,7 +356,7 @@ std::string markdownReport(const RunInfo& info, const std::vector<SweepResult>& 
        "Cylinder (a, b, c): Horton et al. 2010's, R = 5 cm, H = 10 cm, decoupled Neo-Hookean mu = 1007 Pa, K = 50001 Pa"
        " (nu = 0.49), rho = 1000 kg/m^3, no gravity, between two kinematic bonded plates; MPM: dx = 1 cm,"
        " 8 particles per cell (6.2k particles); MTLED: node spacing 1 cm (891 nodes). Compression 20 %"
-       " with the smooth ramp of eq. 43 in 0.3 s (ten times faster than section 4, as the seed's own step"
+       " with the smooth ramp of eq. 43 in 0.3 s (ten times faster than section 4, as the paper's own step"
        " study), then held 0.1 s. Force ratios are against the bonded quasi-static reference at 20 %"
        " (CalculiX extrapolated, −6.805 N), so dynamic and resolution effects show in them.\n\n";
   m << "## (a) Largest stable step\n\n"

@@ -5,7 +5,7 @@
 //
 //   bench_throughput --sizes 1,2.5 --threads 1,2 --frames 50 --out /tmp/throughput
 //
-// Scene variants (--variants) make the pairs of "pay only for what a scene
+// Scene variants (--variants) make pairs that check "pay only for what a scene
 // uses": far-shapes (four kinematic shapes in the domain's top corners, far from every
 // particle), big-domain (the domain 8x larger in node count, the box the same), neo-hookean
 // (the other elastic law), many-shapes (100 small kinematic spheres resting on the box; -400:
@@ -122,7 +122,7 @@ struct SceneVariant {
       scene.addShape(d);
     }
   }
-  /// many-shapes, many-shapes-400 ("a 100-link thread is 100 bodies"): 10 x 10
+  /// many-shapes, many-shapes-400 (a 100-link thread is 100 bodies): 10 x 10
   /// (20 x 20) kinematic spheres in a square pattern over the box's top face, a tenth of a
   /// cell into it. Radius 1.5 dx where the pattern leaves room (0.4 of its pitch otherwise:
   /// 0.4 dx at 8000 particles, 1 dx at 125k); one under 0.75 dx reaches the grid as 0.75 dx

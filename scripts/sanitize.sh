@@ -46,9 +46,9 @@ supp="$root/scripts/sanitizers"
 # output, validation, the step worker's failure and rollback paths and the energy check.
 # Left out, with what they took under ASan: the long settling runs, whose code the short
 # tests already reach: FloorSweep, LargeGround, ThinCapsules, BulletCoupling,
-# BulletMultiBodyChain, SeedCylinder*, Hertz, SelfWeight, the MTLED cylinder studies
+# BulletMultiBodyChain, CylinderBetweenPlates*, Hertz, SelfWeight, the MTLED cylinder studies
 # (each over 25 s), and single slow cases named in ASAN_EXCLUDE. The test programs holding
-# only left-out tests (self_weight, hertz, thin_shapes, seed_cylinder) are not built.
+# only left-out tests (self_weight, hertz, thin_shapes, cylinder_between_plates) are not built.
 ASAN_TARGETS=(test_constitutive test_free_fall test_conservation test_walls test_determinism
               test_validation test_backend test_shapes test_contact test_solvers test_mesh_sdf
               test_mesh_import test_mesh_objects test_bullet_coupling test_bullet_physics
@@ -57,7 +57,7 @@ ASAN_TARGETS=(test_constitutive test_free_fall test_conservation test_walls test
               test_tool_determinism)
 ASAN_INCLUDE="."
 ASAN_EXCLUDE="_NOT_BUILT$"                                         # programs not built here
-ASAN_EXCLUDE+="|SelfWeight|Hertz|ThinCapsules|SeedCylinder"       # their programs are not built
+ASAN_EXCLUDE+="|SelfWeight|Hertz|ThinCapsules|CylinderBetweenPlates" # their programs are not built
 ASAN_EXCLUDE+="|FloorSweep|LargeGround"                            # test_floor: each > 25 s
 ASAN_EXCLUDE+="|ToolDeterminism\\.OneAndTwoThreads"                # 3.3-6.4 s each in Release; the pinned hashes run
 ASAN_EXCLUDE+="|FreeFall\\.CentreOfMassFollowsParabola/PbMpm"        # 74 s

@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# Sets up, builds (Release, tests on) and runs every test with CTest.
+# Sets up, checks the text (scripts/check_history_words.sh), builds (Release, tests on)
+# and runs every test with CTest.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$root"
 scripts/setup.sh
+scripts/check_history_words.sh
 [ -d /usr/local/cuda/bin ] && export PATH="/usr/local/cuda/bin:$PATH"
 jobs="$(nproc)"
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DMPM_BUILD_TESTS=ON

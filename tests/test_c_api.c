@@ -438,6 +438,12 @@ int main(void) {
   block.material.model = 5;
   expectError(mpm_scene_add_object(scene, &block, &id), MPM_ERROR_INVALID_ARGUMENT, "material.model = 5");
   block.material.model = MPM_NEO_HOOKEAN_DECOUPLED;
+  /* not-a-number values as such, whatever NAN's sign bit */
+  block.material.youngs_modulus = -NAN;
+  expectError(mpm_scene_add_object(scene, &block, &id), MPM_ERROR_INVALID_ARGUMENT, "youngs_modulus = nan:");
+  block.material.youngs_modulus = -INFINITY;
+  expectError(mpm_scene_add_object(scene, &block, &id), MPM_ERROR_INVALID_ARGUMENT, "youngs_modulus = -inf:");
+  block.material.youngs_modulus = 2e4f;
   CHECK(mpm_scene_add_object(scene, &block, &id) == MPM_OK, "%s", mpm_last_error());
 
   size_t n = 0, count = 0;

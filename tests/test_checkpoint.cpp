@@ -1,4 +1,4 @@
-// Checkpoints (issue 14): the container refuses what is not a whole checkpoint of this
+// Checkpoints: the container refuses what is not a whole checkpoint of this
 // format, and a save that fails midway leaves the previous file loadable; a scene saved,
 // restored and stepped on follows the uninterrupted run bit for bit (every solver, one CPU
 // thread, with a static and a dynamic shape); a refused checkpoint changes nothing.

@@ -1,4 +1,4 @@
-// Grid contact with rigid shapes (DESIGN section 5) against closed forms: Coulomb sliding
+// Grid contact with rigid shapes (CRESSim-MPM, eqs. 17-18) against closed forms: Coulomb sliding
 // on an incline, a bonded grasper lifting tissue while a sticky one lets go, tissue held
 // by a plate half a cell thick, and the drag coefficient of a sphere ploughing through
 // tissue, with the impulse the shape records balancing the tissue's momentum. Each case

@@ -1,6 +1,6 @@
 // Tissue resting on a floor, the most common scene there is: a soft slab under its own
 // weight shortens by the uniaxial value whatever the floor is made of and wherever its
-// surface falls between two node layers (issue 13). Slab 0.3 x 0.1 x 0.3 m, decoupled
+// surface falls between two node layers. Slab 0.3 x 0.1 x 0.3 m, decoupled
 // Neo-Hookean E = 20 kPa, nu = 0.3, rho = 1000, dx = 2 cm (5 cells over its height), 8
 // particles per cell, on a frictionless floor: the closed form is uniaxial stress,
 // shortening rho g / E * integral (H - z) dz between the top and bottom particle layers of

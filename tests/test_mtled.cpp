@@ -1,8 +1,9 @@
-// MTLED (SolverType::Mtled) against the seed 004 cylinder: 20 % compression of a decoupled
-// Neo-Hookean cylinder between two plates over T = 3 s with the smooth ramp of eq. 43,
-// compared with the CalculiX references in tests/reference (see its README). The scene is
-// scenes::SeedCylinder (axis along y, no gravity, kinematic box plates; the force is the
-// impulse the nodes gave the top plate over a frame, divided by the frame).
+// MTLED (SolverType::Mtled) against the cylinder of Horton et al. 2010: 20 %
+// compression of a decoupled Neo-Hookean cylinder between two plates over T = 3 s with
+// the smooth ramp of eq. 43, compared with the CalculiX references in tests/reference
+// (see its README). The scene is scenes::CylinderBetweenPlates (axis along y, no gravity,
+// kinematic box plates; the force is the impulse the nodes gave the top plate over a
+// frame, divided by the frame).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,29 +20,29 @@
 namespace mpm {
 namespace {
 
-using scenes::SeedCylinder;
-constexpr double kRampTime = SeedCylinder::kRampTime;
+using scenes::CylinderBetweenPlates;
+constexpr double kRampTime = CylinderBetweenPlates::kRampTime;
 
 /// Columns of a reference CSV in tests/reference.
 std::vector<std::vector<double>> readCsv(const std::string& name) {
-  return SeedCylinder::readCsv(test::referencePath(name));
+  return CylinderBetweenPlates::readCsv(test::referencePath(name));
 }
 
 /// Runs the compression with nodes `spacing` apart; forces sampled at the reference times
 /// 0.1 s, 0.2 s, ... (each the mean over a frame centred on the time, so the mean is the
 /// value at the sample to second order).
-SeedCylinder::Run compressCylinder(float spacing, ContactMode ends, bool smoothedStrain = true) {
-  SeedCylinder::Setup setup;
+CylinderBetweenPlates::Run compressCylinder(float spacing, ContactMode ends, bool smoothedStrain = true) {
+  CylinderBetweenPlates::Setup setup;
   setup.solver = SolverType::Mtled;
   setup.resolution = spacing;
   setup.ends = ends;
   setup.smoothedStrain = smoothedStrain;
-  return SeedCylinder::run(setup, SeedCylinder::Loading::Compression, 0.01, 0.1);
+  return CylinderBetweenPlates::run(setup, CylinderBetweenPlates::Loading::Compression, 0.01, 0.1);
 }
 
 /// Reference value at time t (the CSVs are tabulated every 0.1 s).
 double at(const std::vector<double>& times, const std::vector<double>& values, double t) {
-  const double v = SeedCylinder::at(times, values, t);
+  const double v = CylinderBetweenPlates::at(times, values, t);
   if (std::isnan(v)) ADD_FAILURE() << "no reference value at t = " << t;
   return std::isnan(v) ? 0 : v;
 }
@@ -52,7 +53,7 @@ double at(const std::vector<double>& times, const std::vector<double>& values, d
 struct SlipErrors {
   double worst = 0, final = 0;
 };
-SlipErrors slipErrors(const SeedCylinder::Run& run, const char* label) {
+SlipErrors slipErrors(const CylinderBetweenPlates::Run& run, const char* label) {
   const auto ref = readCsv("cylinder_compression_slip.csv");  // t, FE force, closed-form force
   SlipErrors e;
   if (run.time.empty()) {
@@ -76,7 +77,7 @@ SlipErrors slipErrors(const SeedCylinder::Run& run, const char* label) {
 struct BondedErrors {
   double final = 0, curve = 0;
 };
-BondedErrors bondedErrors(const SeedCylinder::Run& run, const char* label) {
+BondedErrors bondedErrors(const CylinderBetweenPlates::Run& run, const char* label) {
   const auto ref = readCsv("cylinder_compression_extrapolated.csv");
   BondedErrors e;
   if (run.time.empty()) {

@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <png.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -13,6 +14,8 @@
 
 #include "mpm/error.h"
 #include "mpm/output.h"
+#include "mpm_bullet/scene_file.h"
+#include "test_paths.h"
 
 namespace mpm::io {
 namespace {
@@ -145,6 +148,21 @@ bool samePixel(Pixel a, Pixel b) { return a.r == b.r && a.g == b.g && a.b == b.b
 /// Red dominates and green and blue stay alike: the hue of Rgb{200, 40, 40} under shading.
 bool looksRed(Pixel p) { return p.r > 2 * p.g && p.r > 2 * p.b && std::abs(p.g - p.b) <= 12; }
 bool looksBlue(Pixel p) { return p.b > 2 * p.r && p.b > 2 * p.g && std::abs(p.r - p.g) <= 12; }
+bool looksGreen(Pixel p) { return p.g > 2 * p.r && p.g > 2 * p.b && std::abs(p.r - p.b) <= 12; }
+
+/// An RGB PNG read back with libpng; `width` and `height` set from its header.
+std::vector<uint8_t> readPng(const std::string& path, unsigned* width, unsigned* height) {
+  png_image png;
+  std::memset(&png, 0, sizeof png);
+  png.version = PNG_IMAGE_VERSION;
+  if (!png_image_begin_read_from_file(&png, path.c_str())) throw Error(png.message);
+  *width = png.width;
+  *height = png.height;
+  png.format = PNG_FORMAT_RGB;
+  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(png));
+  if (!png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr)) throw Error(png.message);
+  return pixels;
+}
 
 TEST(SplatRenderer, ParticleAtTargetFillsCentreWithItsColour) {
   const Camera camera = frontCamera();
@@ -275,16 +293,62 @@ TEST(SplatRenderer, WritePngReadsBackWithLibpng) {
   const std::string path = tempPath("render.png");
   renderer.writePng(path);
 
-  png_image png;
-  std::memset(&png, 0, sizeof png);
-  png.version = PNG_IMAGE_VERSION;
-  ASSERT_TRUE(png_image_begin_read_from_file(&png, path.c_str())) << png.message;
-  EXPECT_EQ(png.width, 97u);
-  EXPECT_EQ(png.height, 61u);
-  png.format = PNG_FORMAT_RGB;
-  std::vector<uint8_t> pixels(PNG_IMAGE_SIZE(png));
-  ASSERT_TRUE(png_image_finish_read(&png, nullptr, pixels.data(), 0, nullptr)) << png.message;
+  unsigned width = 0, height = 0;
+  const std::vector<uint8_t> pixels = readPng(path, &width, &height);
+  EXPECT_EQ(width, 97u);
+  EXPECT_EQ(height, 61u);
   EXPECT_EQ(pixels, renderer.render());
+  std::remove(path.c_str());
+}
+
+// A scene file's coloured bodies in mpm_run's pictures (LoadedScene::writePng): a capsule,
+// a cylinder, a moving mesh (its convex hull) and a static mesh (its triangles), side by
+// side in front of the camera at t = 0. The pixel where each one's centre projects has
+// the body's hue; between them the sky shows.
+TEST(ScenePictures, CapsulesCylindersAndMeshesAreDrawn) {
+  const std::string json = R"({
+    "settings": {"domain": {"lower": [-0.5, -0.3, -0.3], "upper": [0.5, 0.3, 0.3]}, "dx": 0.05},
+    "world": {"gravity": [0, 0, 0]},
+    "bodies": [
+      {"name": "capsule", "mass": 1, "coupled": false, "color": [200, 40, 40],
+       "pose": {"position": [-0.36, 0, 0]}, "shape": {"type": "capsule", "radius": 0.03, "halfHeight": 0.04}},
+      {"name": "cylinder", "mass": 0, "coupled": false, "color": [40, 40, 200],
+       "pose": {"position": [-0.12, 0, 0]}, "shape": {"type": "cylinder", "radius": 0.04, "halfHeight": 0.04}},
+      {"name": "hull", "mass": 1, "coupled": false, "color": [40, 200, 40],
+       "pose": {"position": [0.12, 0, 0]}, "shape": {"type": "mesh", "file": "sphere.obj"}},
+      {"name": "triangles", "mass": 0, "coupled": false, "color": [200, 40, 40],
+       "pose": {"position": [0.36, 0, 0]}, "shape": {"type": "mesh", "file": "box.gltf"}}
+    ],
+    "output": {"camera": {"eye": [0, 0, 1.2], "target": [0, 0, 0], "fovYDegrees": 40, "width": 320, "height": 240}}
+  })";
+  auto loaded = bullet::LoadedScene::fromString(json, test::assetPath(""));
+  const std::string path = tempPath("bodies.png");
+  loaded->writePng(path);
+  unsigned width = 0, height = 0;
+  const std::vector<uint8_t> image = readPng(path, &width, &height);
+  ASSERT_EQ(width, 320u);
+  ASSERT_EQ(height, 240u);
+  Camera camera;
+  camera.width = 320;
+  camera.height = 240;
+  // pixel column of a point on the plane z = 0: 160 + f x / 1.2, f = 120 / tan(20 deg)
+  const auto column = [](double x) { return (int)(160 + 120 / std::tan(20 * M_PI / 180) * x / 1.2); };
+  const Pixel capsule = pixelAt(image, camera, column(-0.36), 120);
+  const Pixel cylinder = pixelAt(image, camera, column(-0.12), 120);
+  const Pixel hull = pixelAt(image, camera, column(0.12), 120);
+  const Pixel triangles = pixelAt(image, camera, column(0.36), 120);
+  EXPECT_TRUE(looksRed(capsule)) << capsule.r << " " << capsule.g << " " << capsule.b;
+  EXPECT_TRUE(looksBlue(cylinder)) << cylinder.r << " " << cylinder.g << " " << cylinder.b;
+  EXPECT_TRUE(looksGreen(hull)) << hull.r << " " << hull.g << " " << hull.b;
+  EXPECT_TRUE(looksRed(triangles)) << triangles.r << " " << triangles.g << " " << triangles.b;
+  // the capsule's cap: 0.065 m above its centre is inside it (its top at 0.07 m), 0.09 m is not
+  const auto row = [](double y) { return (int)(120 - 120 / std::tan(20 * M_PI / 180) * y / 1.2); };
+  EXPECT_TRUE(looksRed(pixelAt(image, camera, column(-0.36), row(0.065))));
+  for (double x : {-0.24, 0.0, 0.24}) {  // between the bodies
+    const Pixel sky = pixelAt(image, camera, column(x), 120);
+    EXPECT_FALSE(looksRed(sky) || looksBlue(sky) || looksGreen(sky)) << "x " << x;
+  }
+  EXPECT_FALSE(looksRed(pixelAt(image, camera, column(-0.36), row(0.09))));
   std::remove(path.c_str());
 }
 

@@ -1,5 +1,5 @@
 // The scene's state across its lifecycle: what adding objects, reading during a step, a
-// failed step, an advance beyond the substep limit and MTLED's model do to it (issue 13).
+// failed step, an advance beyond the substep limit and MTLED's model do to it.
 #include <gtest/gtest.h>
 
 #include <cmath>

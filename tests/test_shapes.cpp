@@ -1,5 +1,5 @@
 // Rigid shapes: primitive signed distances against closed forms, and the grid contact
-// of DESIGN section 5 against momentum balance.
+// of the grid contact (CRESSim-MPM, eqs. 17-18) against momentum balance.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -62,7 +62,7 @@ TEST(ShapeSdf, PrimitivesMatchClosedForms) {
   }
 }
 
-// Large shapes near the domain (issue 13): Bullet's usual ground is a box of half-extents
+// Large shapes near the domain: Bullet's usual ground is a box of half-extents
 // 50 m centred 50 m below the origin, whose local coordinates near its top face are about
 // 50 m and round to ~4e-6 m in float. The part's distance at grid nodes near y = 0 (dx =
 // 2 cm, and 1e-6 m above and below a node layer) must match the exact distance of the same

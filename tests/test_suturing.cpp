@@ -1,4 +1,4 @@
-// Suturing curves (issue 16, DESIGN 5): a needle slides along itself through tissue but
+// Suturing curves (CRESSim-MPM, section IV-C): a needle slides along itself through tissue but
 // drags it sideways; its tip presses the surface in, breaks in, opens a track against the
 // tissue's fracture toughness, and its shaft feels friction growing with the inserted
 // length; threads drag tissue sideways too. Momentum the curves take balances the tissue's.
@@ -220,7 +220,7 @@ std::unique_ptr<Scene> insertedNeedle(CurveId& id, bool contactOnly) {
   return scene;
 }
 
-// The curve contact (seed 000 IV-C): a needle 8 mm into the block, moved on at 5 mm/s for
+// The curve contact (CRESSim-MPM, IV-C): a needle 8 mm into the block, moved on at 5 mm/s for
 // 1.5 mm along its own arc and, from the same start, sideways (across its plane). Along
 // itself only the tangential slip survives, and it slides; sideways it drags the material
 // with it. The contact rule alone (no toughness, no shaft friction). With them the needle
@@ -512,7 +512,7 @@ std::vector<Vec3f> stitch(float x) {
   return p;
 }
 
-// A stitch tightened (seed 000 Fig. 12): two blocks 6 mm apart, glued at their bases, a
+// A stitch tightened (CRESSim-MPM, Fig. 12): two blocks 6 mm apart, glued at their bases, a
 // thread loop through both 5 mm from their facing sides, its legs drawn toward each other
 // at 1 cm/s by 7 mm (the loop's bottom slides along itself, the legs drag the tissue): the
 // gap closes to under a third of its width, with MLS-MPM and PB-MPM. The thread is

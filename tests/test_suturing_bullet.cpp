@@ -845,7 +845,7 @@ TEST(ThreadCoupling, AddedMassIsTheHeldNodesAndLeavesWithTheThread) {
   bullet::destroySutureThread(bw.multiWorld, thread);
 }
 
-// (e) A stitch pulled tight (seed 000 Fig. 12; issue: the gap closes to under a third of
+// (e) A stitch pulled tight (CRESSim-MPM, Fig. 12; required: the gap closes to under a third of
 // its width, with MLS-MPM and with PB-MPM). Added mass, Bullet ticks of 1/9600 s, the holder
 // drawn straight up at 1 cm/s. The loop between the knot and the holder draws the edges
 // together and, the knot being 5.8 mm above the tissue, lifts the tissue inside the loop
@@ -885,7 +885,7 @@ TEST(PullingTheStitch, ClosesTheGapMlsMpm) { expectStitchClosed(pullStitch(Solve
 // with 30 iterations the explicit exchange blew up (179 N, the pin let go).
 TEST(PullingTheStitch, ClosesTheGapPbMpm) { expectStitchClosed(pullStitch(SolverType::PbMpm, true, 2.5f, 1.f / 9600, 6)); }
 
-// (e) The pass (seed 000 Fig. 12; the demo's set-up on the blocks of PullingTheStitch,
+// (e) The pass (CRESSim-MPM, Fig. 12; the demo's set-up on the blocks of PullingTheStitch,
 // 1.25 cm deep, and a faster turn): a half-circle needle of 12 mm (a 100 g body driven by
 // a NeedleDriver, coupled with addNeedle; toughness G_c 200 J/m^2, puncture force 0.03 N)
 // turns 365 degrees about its centre 6 mm above the tops in 2.5 s: in through block 1,

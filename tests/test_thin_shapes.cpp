@@ -1,4 +1,4 @@
-// Shapes thinner than a cell resting on tissue (issue 13): needles, thread links, probes
+// Shapes thinner than a cell resting on tissue: needles, thread links, probes
 // and grasper jaws are thinner than a grid cell in real scenes. A Bullet capsule 4 cm long,
 // of radius 0.2, 0.4 or 0.6 dx, dropped 3 cm onto a 30 kPa block 6 cm thick (dx = 1 cm),
 // must come to rest on the block's surface and stay there for 5 s, as a rigid body and as

@@ -127,6 +127,20 @@ TEST(Validation, YoungsModulusMustBePositive) {
   live.expectStillUsable();
 }
 
+// A value that is not a number shows as one: "nan" whatever its sign bit (0 / 0 on x86
+// gives the negative one), "inf", "-inf"; the same words the C API and Python show.
+TEST(Validation, NonFiniteValuesShowAsNanAndInf) {
+  LiveScene live;
+  const std::pair<float, const char*> cases[] = {
+      {kNaN, "youngsModulus = nan:"}, {-kNaN, "youngsModulus = nan:"}, {kInf, "youngsModulus = inf:"}, {-kInf, "youngsModulus = -inf:"}};
+  for (const auto& [E, shown] : cases) {
+    ParticleObjectDesc d = goodBlock();
+    d.material.youngsModulus = E;
+    expectRejected([&] { live.scene.addParticleObject(d); }, "material.youngsModulus", shown);
+  }
+  live.expectStillUsable();
+}
+
 TEST(Validation, PoissonRatioMustLieInOpenInterval) {
   LiveScene live;
   for (float nu : {0.5f, -1.f, 0.7f, kNaN}) {

@@ -1,4 +1,4 @@
-// Cutting demo (seed 000 Fig. 11): a scalpel, a kinematic Bullet body coupled as a slicer,
+// Cutting demo (CRESSim-MPM, Fig. 11): a scalpel, a kinematic Bullet body coupled as a slicer,
 // goes down into a block of tissue bonded to the ground at its base, moves right through
 // it, goes down again to open the cut deeper, and is withdrawn. The tissue resists with
 // its fracture toughness (liver, 160 J/m^2). Writes PNGs (the two sides of the cut in two

@@ -21,7 +21,7 @@ import mpm_bullet as mb
 from mpm_bullet.pybullet import Coupler
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from pictures import link_boxes, render, write_png  # noqa: E402
+from pictures import link_points, render, write_png  # noqa: E402
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 TICK = 1.0 / 240
@@ -72,7 +72,7 @@ def main():
     for i in range(ticks + 1):
         if i % args.png_every == 0:
             img = render([(scene.positions(cube), 0.6 * args.dx, (220, 120, 110)),
-                          (link_boxes(client, gripper, 0.004), 0.003, (120, 120, 140))],
+                          (link_points(client, gripper, 0.004), 0.003, (120, 120, 140))],
                          lower=(-0.1, -0.01), upper=(0.1, 0.21))
             write_png(os.path.join(args.out, f"gripper_{i // args.png_every:03d}.png"), img)
             for name, t in (("open", 0.0), ("closed", 0.8), ("lifted", args.seconds)):

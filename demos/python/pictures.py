@@ -1,5 +1,5 @@
-"""Pictures for the Python demos without a plotting library: particles and box-shaped links
-splatted as shaded discs in a side view (looking along +y, z up), written as PNG with the
+"""Pictures for the Python demos without a plotting library: particles and pybullet links
+(boxes, spheres, capsules, cylinders; a mesh as the box bounding it) splatted as shaded discs in a side view (looking along +y, z up), written as PNG with the
 standard library's zlib. Good enough to see what happened; mpm_run's renderer is nicer."""
 
 import struct
@@ -9,27 +9,62 @@ import numpy as np
 import pybullet as p
 
 
-def box_points(half, position, orientation, spacing):
-    """Points on the surface of a box of half extents `half` at a pose, `spacing` apart."""
+def shell(distance, half, spacing):
+    """Points of a lattice `spacing` apart over the box of half sizes `half` whose signed
+    distance (negative inside) lies in [-spacing, 0]: a shape's surface, one layer thick."""
     axes = [np.linspace(-h, h, max(2, int(round(2 * h / spacing)) + 1)) for h in half]
     g = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    g = g[np.any(np.isclose(np.abs(g), half), axis=1)]
-    R = np.array(p.getMatrixFromQuaternion(orientation)).reshape(3, 3)
-    return g @ R.T + np.asarray(position)
+    d = distance(g)
+    return g[(d <= 1e-9) & (d >= -spacing)]
 
 
-def link_boxes(client, body, spacing):
-    """Surface points of every box collision shape of a multibody's links (base included)."""
+def shape_points(geometry, dimensions, spacing):
+    """Shape-local surface points of a pybullet collision shape, or None for a mesh (and any
+    other shape): box (dimensions: full extents), sphere (radius first), capsule and
+    cylinder (length, radius; along local z, as pybullet has them)."""
+    if geometry == p.GEOM_BOX:
+        half = 0.5 * np.asarray(dimensions[:3])
+        return shell(lambda q: np.max(np.abs(q) - half, axis=1), half, spacing)
+    if geometry == p.GEOM_SPHERE:
+        r = dimensions[0]
+        return shell(lambda q: np.linalg.norm(q, axis=1) - r, [r] * 3, spacing)
+    if geometry in (p.GEOM_CAPSULE, p.GEOM_CYLINDER):
+        half_length, r = 0.5 * dimensions[0], dimensions[1]
+        if geometry == p.GEOM_CAPSULE:  # within r of the axis segment
+            def distance(q):
+                axis = np.clip(q[:, 2], -half_length, half_length)
+                return np.linalg.norm(q - np.c_[0 * axis, 0 * axis, axis], axis=1) - r
+            return shell(distance, [r, r, half_length + r], spacing)
+        return shell(lambda q: np.maximum(np.linalg.norm(q[:, :2], axis=1) - r, np.abs(q[:, 2]) - half_length),
+                     [r, r, half_length], spacing)
+    return None
+
+
+def link_points(client, body, spacing):
+    """World points on every collision shape of a multibody's links (base included): boxes,
+    spheres, capsules and cylinders as they are; a mesh as the box that bounds its vertices,
+    turning with its link (any shape pybullet gives no vertices of: its world bounding box),
+    so that it is seen."""
     pts = []
     for link in range(-1, p.getNumJoints(body, physicsClientId=client)):
         if link < 0:
             com, orn = p.getBasePositionAndOrientation(body, physicsClientId=client)
         else:
             com, orn = p.getLinkState(body, link, computeForwardKinematics=1, physicsClientId=client)[:2]
-        for s in p.getCollisionShapeData(body, link, physicsClientId=client):
-            if s[2] == p.GEOM_BOX:
-                pos, q = p.multiplyTransforms(com, orn, s[5], s[6])
-                pts.append(box_points(0.5 * np.array(s[3]), pos, q, spacing))
+        for index, s in enumerate(p.getCollisionShapeData(body, link, physicsClientId=client)):
+            local = shape_points(s[2], s[3], spacing)
+            pos, q = p.multiplyTransforms(com, orn, s[5], s[6])
+            if local is None:
+                count, vertices = p.getMeshData(body, link, collisionShapeIndex=index, physicsClientId=client)
+                if count > 0:
+                    lo, hi = np.min(vertices, axis=0), np.max(vertices, axis=0)
+                else:
+                    lo, hi = (np.asarray(v) for v in p.getAABB(body, link, physicsClientId=client))
+                    pos, q = (0, 0, 0), (0, 0, 0, 1)
+                half = 0.5 * (hi - lo)
+                local = shell(lambda x: np.max(np.abs(x) - half, axis=1), half, spacing) + 0.5 * (lo + hi)
+            R = np.array(p.getMatrixFromQuaternion(q)).reshape(3, 3)
+            pts.append(local @ R.T + np.asarray(pos))
     return np.concatenate(pts) if pts else np.zeros((0, 3))
 
 

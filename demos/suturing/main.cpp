@@ -1,4 +1,4 @@
-// Suturing demo (seed 000 Fig. 12): two soft tissue blocks side by side with a gap, each
+// Suturing demo (CRESSim-MPM, Fig. 12): two soft tissue blocks side by side with a gap, each
 // bonded to the ground at its base. A curved needle (a dynamic Bullet body driven like a
 // hand holding a needle holder, coupled as an ArcDesc) turns about its axis: in through
 // the top of block 1, under the gap, out through the top of block 2, on until its tail

@@ -229,25 +229,25 @@ ShapeDesc plate(float halfWidth, float halfThickness, float faceY, bool below, c
   return d;
 }
 
-double SeedCylinder::seedPoissonRatio() { return (3 * kBulk - 2 * kMu) / (2 * (3 * kBulk + kMu)); }
+double CylinderBetweenPlates::seedPoissonRatio() { return (3 * kBulk - 2 * kMu) / (2 * (3 * kBulk + kMu)); }
 
-Material SeedCylinder::material(double nu) {
-  // at the seed's nu, E = 2 mu (1 + nu) rounds to the same float as 9 K mu / (3 K + mu)
+Material CylinderBetweenPlates::material(double nu) {
+  // at the paper's nu, E = 2 mu (1 + nu) rounds to the same float as 9 K mu / (3 K + mu)
   const double E = 2 * kMu * (1 + nu);
   return {MaterialModel::NeoHookeanDecoupled, (float)E, (float)nu, (float)kDensity};
 }
 
-double SeedCylinder::waveSpeed(const Material& m) {
+double CylinderBetweenPlates::waveSpeed(const Material& m) {
   const double E = m.youngsModulus, nu = m.poissonRatio;
   return std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / m.density);
 }
 
-double SeedCylinder::smoothRamp(double s) {
+double CylinderBetweenPlates::smoothRamp(double s) {
   s = std::min(std::max(s, 0.0), 1.0);
   return (10 - 15 * s + 6 * s * s) * s * s * s;
 }
 
-const char* SeedCylinder::loadingName(Loading loading) {
+const char* CylinderBetweenPlates::loadingName(Loading loading) {
   switch (loading) {
     case Loading::Compression: return "compression";
     case Loading::Extension: return "extension";
@@ -256,7 +256,7 @@ const char* SeedCylinder::loadingName(Loading loading) {
   return "?";
 }
 
-SceneSettings SeedCylinder::settings(const Setup& setup) {
+SceneSettings CylinderBetweenPlates::settings(const Setup& setup) {
   const bool meshless = setup.solver == SolverType::Mtled;
   const double dx = meshless ? 0.01 : setup.resolution;
   // whole cells from the origin to the lower y face and to the x, z faces (computed in
@@ -277,7 +277,7 @@ SceneSettings SeedCylinder::settings(const Setup& setup) {
   return s;
 }
 
-ParticleObjectDesc SeedCylinder::cylinder(const Setup& setup) {
+ParticleObjectDesc CylinderBetweenPlates::cylinder(const Setup& setup) {
   ParticleObjectDesc cyl;
   cyl.primitive = PrimitiveType::Cylinder;
   cyl.center = {0.f, (float)kHeight / 2, 0.f};
@@ -289,7 +289,7 @@ ParticleObjectDesc SeedCylinder::cylinder(const Setup& setup) {
   return cyl;
 }
 
-ShapeDesc SeedCylinder::plate(const Setup& setup, bool top) {
+ShapeDesc CylinderBetweenPlates::plate(const Setup& setup, bool top) {
   ContactParams contact;
   contact.mode = setup.ends;
   contact.friction = 0.f;
@@ -298,7 +298,7 @@ ShapeDesc SeedCylinder::plate(const Setup& setup, bool top) {
   return scenes::plate(setup.halfWidth, kPlateHalfThickness, top ? (float)kHeight : 0.f, !top, contact);
 }
 
-SeedCylinder::Parts SeedCylinder::build(Scene& scene, const Setup& setup) {
+CylinderBetweenPlates::Parts CylinderBetweenPlates::build(Scene& scene, const Setup& setup) {
   Parts p;
   p.body = scene.addParticleObject(cylinder(setup));
   p.bottom = scene.addShape(plate(setup, false));
@@ -306,7 +306,7 @@ SeedCylinder::Parts SeedCylinder::build(Scene& scene, const Setup& setup) {
   return p;
 }
 
-std::array<double, 3> SeedCylinder::topDisplacement(Loading loading, double t, double rampTime) {
+std::array<double, 3> CylinderBetweenPlates::topDisplacement(Loading loading, double t, double rampTime) {
   // D (10 - 15 s + 6 s^2) s^3, multiplied in this order (tests/test_mtled.cpp's numbers)
   const double s = std::min(std::max(t / rampTime, 0.0), 1.0);
   const double u = kTravel * (10 - 15 * s + 6 * s * s) * s * s * s;
@@ -318,7 +318,7 @@ std::array<double, 3> SeedCylinder::topDisplacement(Loading loading, double t, d
   return {0.0, 0.0, 0.0};
 }
 
-SeedCylinder::Run SeedCylinder::run(const Setup& setup, Loading loading, double frame, double sample,
+CylinderBetweenPlates::Run CylinderBetweenPlates::run(const Setup& setup, Loading loading, double frame, double sample,
                                     const std::function<void(double)>& progress) {
   Scene scene(settings(setup));
   const Parts parts = build(scene, setup);
@@ -358,7 +358,7 @@ SeedCylinder::Run SeedCylinder::run(const Setup& setup, Loading loading, double 
   return run;
 }
 
-std::vector<std::vector<double>> SeedCylinder::readCsv(const std::string& path) {
+std::vector<std::vector<double>> CylinderBetweenPlates::readCsv(const std::string& path) {
   std::ifstream in(path);
   if (!in.good()) throw Error("cannot open " + path);
   std::vector<std::vector<double>> columns;
@@ -380,7 +380,7 @@ std::vector<std::vector<double>> SeedCylinder::readCsv(const std::string& path) 
   return columns;
 }
 
-double SeedCylinder::at(const std::vector<double>& times, const std::vector<double>& values, double t) {
+double CylinderBetweenPlates::at(const std::vector<double>& times, const std::vector<double>& values, double t) {
   for (size_t i = 0; i < times.size() && i < values.size(); ++i)
     if (std::abs(times[i] - t) < 1e-6) return values[i];
   return std::nan("");

@@ -136,7 +136,7 @@ struct HertzIndentation {
 /// whose lower face (`below` false) or upper face (`below` true) is at height `faceY`.
 ShapeDesc plate(float halfWidth, float halfThickness, float faceY, bool below, const ContactParams& contact);
 
-/// The seed 004 cylinder (tests/reference/README.md: CalculiX references, Horton et al.
+/// The cylinder of Horton et al. 2010 ( tests/reference/README.md: CalculiX references, Horton et al.
 /// 2010's set-up) between two kinematic plates: R = 5 cm, H = 10 cm, axis along y (the
 /// library's up axis) with the bottom face at y = 0, decoupled Neo-Hookean mu = 1007 Pa,
 /// K = 50001.333 Pa (nu = 0.48999), rho = 1000 kg/m^3, no gravity. Used by
@@ -153,13 +153,13 @@ ShapeDesc plate(float halfWidth, float halfThickness, float faceY, bool below, c
 ///   node spacing is `resolution`; the grid only bins the nodes). The domain's lower y face
 ///   and its x, z faces are whole cells from the origin (the plate face y = 0 lies on a node
 ///   layer and the axis on a node column at every dx); walls off.
-/// - Ramp (eq. 43 of the seed): u(t) = D (10 - 15 s + 6 s^2) s^3, s = t / T, T = 3 s,
+/// - Ramp (eq. 43 of the paper): u(t) = D (10 - 15 s + 6 s^2) s^3, s = t / T, T = 3 s,
 ///   D = 0.2 H (20 %): the top plate moves down (compression), up (extension) or along +x
 ///   (shear, the plate's height kept).
 /// - Force: the impulse the material gave the top plate over a frame divided by the
 ///   frame's length, negated (the force the plate applies to the cylinder; negative y in
 ///   compression).
-struct SeedCylinder {
+struct CylinderBetweenPlates {
   static constexpr double kRadius = 0.05;      ///< R [m]
   static constexpr double kHeight = 0.1;       ///< H [m]
   static constexpr double kMu = 1007.0;        ///< shear modulus [Pa]
@@ -172,9 +172,9 @@ struct SeedCylinder {
   /// (tests/reference/cylinder_compression_extrapolated.csv) [N].
   static constexpr double kBondedFinalForce = -6.804933;
 
-  /// nu of the seed's mu and K, (3K - 2 mu) / (2 (3K + mu)) = 0.48999.
+  /// nu of the paper's mu and K, (3K - 2 mu) / (2 (3K + mu)) = 0.48999.
   static double seedPoissonRatio();
-  /// The material with the seed's mu and Poisson ratio nu (E = 2 mu (1 + nu)).
+  /// The material with the paper's mu and Poisson ratio nu (E = 2 mu (1 + nu)).
   static Material material(double nu);
   /// P-wave speed sqrt((lambda + 2 mu) / rho) of a material [m/s].
   static double waveSpeed(const Material& m);

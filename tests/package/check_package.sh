@@ -17,6 +17,21 @@ cmake -S "$src/tests/package/consumer" -B "$work/installed" -DCMAKE_BUILD_TYPE=R
 cmake --build "$work/installed" -j 2
 "$work/installed/consumer"
 
+if [ -x "$build/demos/mpm_run" ]; then  # built with MPM_BUILD_DEMOS
+  echo "== installed bin/mpm_run"
+  test -x "$work/prefix/bin/mpm_run"
+  "$work/prefix/bin/mpm_run" --help > "$work/mpm_run_help.txt"
+  grep -q -- "--frames" "$work/mpm_run_help.txt"
+  "$work/prefix/bin/mpm_run" "$src/assets/scenes/coupling.json" --frames 1 --threads 2 --out "$work/mpm_run_out"
+  test -f "$work/mpm_run_out/frame_0000.png" && test -s "$work/mpm_run_out/frames.csv"
+fi
+
+echo "== C-only project (LANGUAGES C) from $work/prefix"
+cmake -S "$src/tests/package/c_consumer" -B "$work/c_installed" -DCMAKE_BUILD_TYPE=Release \
+      -DCMAKE_PREFIX_PATH="$work/prefix"
+cmake --build "$work/c_installed" -j 2
+"$work/c_installed/c_consumer"
+
 echo "== add_subdirectory($src)"
 cmake -S "$src/tests/package/consumer" -B "$work/subdirectory" -DCMAKE_BUILD_TYPE=Release \
       -DMPM_BULLET_SOURCE_DIR="$src" -DMPM_WITH_CUDA=OFF > "$work/subdirectory.log"

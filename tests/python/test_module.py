@@ -47,6 +47,20 @@ def test_bad_settings_values_are_named_as_in_scene_files():
     assert info.value.field == "settings.dx"
 
 
+def test_non_finite_values_show_as_nan_and_inf():
+    # as the C++ and C messages show them (not as JSON's null)
+    for value, shown in ((float("nan"), "nan"), (float("inf"), "inf"), (-float("inf"), "-inf")):
+        bad = block()
+        bad["material"]["youngsModulus"] = value
+        e = raises_invalid(f"object.material.youngsModulus = {shown}: must be a finite float",
+                           mb.Scene(settings()).add_object, bad)
+        assert e.value == shown
+    raises_invalid("settings.gravity[1] = nan: must be a finite float", mb.Scene,
+                   settings(gravity=[0, float("nan"), 0]))
+    raises_invalid("settings.gravity = [0,nan]: must be an array of 3 numbers", mb.Scene,
+                   settings(gravity=[0, float("nan")]))
+
+
 def test_bad_object_values_are_named():
     scene = mb.Scene(settings())
     bad = block()

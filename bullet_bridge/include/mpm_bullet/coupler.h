@@ -8,7 +8,7 @@
 ///   coupler.addRigidBody(tool);                              // btMultiBodyDynamicsWorld*
 ///   world->stepSimulation(1.f / 60, 10, 1.f / 240);          // tissue advances with Bullet
 ///
-/// Per internal tick (DESIGN section 5, "Coupling loop", run at the start of each tick, so
+/// Per internal tick (the coupling loop, run at the start of each tick, so
 /// it sits between Bullet's previous tick and its next): each coupled body's shape takes
 /// the body's pose and velocities; the scene advances over the tick with its own substeps,
 /// a dynamic shape feeling its body's gravity there; the momentum the grid gave each shape

@@ -1,5 +1,5 @@
 #pragma once
-/// Suturing on the Bullet side (DESIGN section 5, "Suturing"): a thread as a Featherstone
+/// Suturing on the Bullet side (CRESSim-MPM, section IV-C): a thread as a Featherstone
 /// chain of capsules, pins for its points (to the needle's tail, to a fixed knot), and a
 /// driver that moves a needle body toward a target pose with bounded force and torque.
 /// The coupling to the tissue is in coupler.h (Coupler::addNeedle, Coupler::addThread).

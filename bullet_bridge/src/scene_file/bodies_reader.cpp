@@ -16,7 +16,8 @@ float positive(Node& n, const char* key) {
   return v;
 }
 
-std::unique_ptr<btCollisionShape> readShape(Node n, float mass, const LoadedScene::Impl& s) {
+/// The body's Bullet shape; a mesh shape's triangles also go to `mesh`, for the pictures.
+std::unique_ptr<btCollisionShape> readShape(Node n, float mass, const LoadedScene::Impl& s, TriangleMesh& mesh) {
   std::string type;
   n.readRequired("type", type);
   std::unique_ptr<btCollisionShape> shape;
@@ -47,7 +48,7 @@ std::unique_ptr<btCollisionShape> readShape(Node n, float mass, const LoadedScen
     n.read("scale", scale);
     if (!(scale > 0.f)) fail(n.at("scale"), scale, "must be > 0");
     try {
-      const TriangleMesh mesh = loadTriangleMesh(file, scale);
+      mesh = loadTriangleMesh(file, scale);
       shape = mass == 0.f ? makeBvhTriangleMeshShape(mesh) : makeConvexHullShape(mesh);
     } catch (const Error& e) {
       throw InvalidArgument(n.at("file"), show(n.require("file")), e.what());
@@ -94,7 +95,7 @@ void readBody(Node n, LoadedScene::Impl& s) {
   float mass = 0.f;
   n.read("mass", mass);
   if (!(mass >= 0.f)) fail(n.at("mass"), n.require("mass"), "must be >= 0 (0: static or kinematic)");
-  b->shape = readShape(n.object("shape"), mass, s);
+  b->shape = readShape(n.object("shape"), mass, s, b->mesh);
 
   // the motion: kinematic (a motion state Bullet asks) or driven (NeedleDriver's forces)
   std::string mode;

@@ -1,5 +1,5 @@
-// A frame's picture (the tissue, needles and threads through the splat renderer) and its
-// CSV row.
+// A frame's picture (the tissue, coloured bodies, needles and threads through the splat
+// renderer) and its CSV row.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -24,6 +24,73 @@ void addPolyline(const std::vector<btVector3>& p, float spacing, std::vector<Vec
   if (!p.empty()) out.push_back(vec(p.back()));
 }
 
+/// Is the body-local point p inside a box, sphere, capsule or cylinder shape (Bullet's
+/// capsule and cylinder along their up axis, local y as the scene file makes them)?
+bool inside(const btCollisionShape* shape, const btVector3& p) {
+  switch (shape->getShapeType()) {
+    case BOX_SHAPE_PROXYTYPE: {  // Bullet's box bounds include its margin
+      const btVector3 h = static_cast<const btBoxShape*>(shape)->getHalfExtentsWithMargin();
+      return std::fabs(p.x()) <= h.x() && std::fabs(p.y()) <= h.y() && std::fabs(p.z()) <= h.z();
+    }
+    case SPHERE_SHAPE_PROXYTYPE: return p.length() <= static_cast<const btSphereShape*>(shape)->getRadius();
+    case CAPSULE_SHAPE_PROXYTYPE: {  // within the radius of the axis segment
+      const auto* c = static_cast<const btCapsuleShape*>(shape);
+      const int up = c->getUpAxis();
+      btVector3 axis(0, 0, 0);
+      axis[up] = std::clamp(p[up], -c->getHalfHeight(), c->getHalfHeight());
+      return (p - axis).length() <= c->getRadius();
+    }
+    case CYLINDER_SHAPE_PROXYTYPE: {
+      const auto* c = static_cast<const btCylinderShape*>(shape);
+      const int up = c->getUpAxis();
+      btVector3 radial = p;
+      radial[up] = 0;
+      return std::fabs(p[up]) <= c->getHalfExtentsWithMargin()[up] && radial.length() <= c->getRadius();
+    }
+    default: return false;
+  }
+}
+
+/// Body-local points that show a coloured body, about `spacing` [m] apart: a lattice
+/// filling a box, sphere, capsule or cylinder, or points over a mesh's triangles (a moving
+/// mesh is its convex hull to Bullet; its own triangles are what a person recognises).
+/// A plane gives none. At most 64 points along a side or a triangle's edge.
+std::vector<btVector3> bodyPoints(const Body& b, float& spacing) {
+  std::vector<btVector3> points;
+  btVector3 lo, hi;
+  b.shape->getAabb(btTransform::getIdentity(), lo, hi);
+  const btVector3 extent = hi - lo;
+  if (!b.mesh.indices.empty()) {
+    spacing = extent[extent.maxAxis()] / 32;
+    for (size_t t = 0; t < b.mesh.triangleCount(); ++t) {
+      btVector3 v[3];
+      for (int k = 0; k < 3; ++k) {
+        const Vec3f& p = b.mesh.vertices[b.mesh.indices[3 * t + k]];
+        v[k] = btVector3(p.x, p.y, p.z);
+      }
+      const float edge = std::max({(v[1] - v[0]).length(), (v[2] - v[1]).length(), (v[0] - v[2]).length()});
+      const int n = (int)std::clamp(std::ceil(edge / spacing), 1.f, 64.f);
+      for (int i = 0; i <= n; ++i)
+        for (int j = 0; i + j <= n; ++j) points.push_back(v[0] + (v[1] - v[0]) * ((float)i / n) + (v[2] - v[0]) * ((float)j / n));
+    }
+    return points;
+  }
+  if (b.shape->getShapeType() == STATIC_PLANE_PROXYTYPE) return points;
+  // as fine as a twelfth of the longest side and half the shortest, so a thin shape gets a layer
+  const float step = std::min(extent[extent.maxAxis()] / 12, extent[extent.minAxis()] / 2);
+  int n[3];
+  for (int a = 0; a < 3; ++a) n[a] = (int)std::clamp(std::round(extent[a] / step), 1.f, 64.f);
+  const btVector3 cell(extent.x() / n[0], extent.y() / n[1], extent.z() / n[2]);
+  spacing = cell[cell.maxAxis()];
+  for (int i = 0; i < n[0]; ++i)
+    for (int j = 0; j < n[1]; ++j)
+      for (int k = 0; k < n[2]; ++k) {
+        const btVector3 p = lo + cell * btVector3(i + 0.5f, j + 0.5f, k + 0.5f);
+        if (inside(b.shape.get(), p)) points.push_back(p);
+      }
+  return points;
+}
+
 }  // namespace
 
 bool LoadedScene::pngDue() const {
@@ -46,28 +113,15 @@ void LoadedScene::writePng(const std::string& path) const {
       if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
     renderer.addParticles(shown, radius, obj.color);
   }
-  for (const auto& b : s.bodies) {  // a body given a colour: a lattice of points inside its box or sphere
+  for (const auto& b : s.bodies) {  // a body given a colour: points filling it, or over its mesh
     if (!b->color) continue;
-    const btCollisionShape* shape = b->shape.get();
-    btVector3 lo, hi;
-    shape->getAabb(btTransform::getIdentity(), lo, hi);
-    const bool sphere = shape->getShapeType() == SPHERE_SHAPE_PROXYTYPE;
-    if (!sphere && shape->getShapeType() != BOX_SHAPE_PROXYTYPE) continue;
-    if (!sphere) {  // Bullet's box bounds include its margin
-      const btVector3 h = static_cast<const btBoxShape*>(shape)->getHalfExtentsWithMargin();
-      lo = -h;
-      hi = h;
-    }
+    float spacing = 0.f;
+    const std::vector<btVector3> local = bodyPoints(*b, spacing);
     const btTransform t = b->body->getCenterOfMassTransform();
-    const btVector3 step = (hi - lo) / 8;
     std::vector<Vec3f> points;
-    for (int i = 0; i < 8; ++i)
-      for (int j = 0; j < 8; ++j)
-        for (int k = 0; k < 8; ++k) {
-          const btVector3 p = lo + step * btVector3(i + 0.5f, j + 0.5f, k + 0.5f);
-          if (!sphere || p.length() <= hi.x()) points.push_back(vec(t * p));
-        }
-    renderer.addParticles(points, 0.6f * step.x(), *b->color);
+    points.reserve(local.size());
+    for (const btVector3& p : local) points.push_back(vec(t * p));
+    if (!points.empty()) renderer.addParticles(points, 0.6f * spacing, *b->color);
   }
   const float wire = 0.2f * radius;
   for (const Needle& n : s.needles) {

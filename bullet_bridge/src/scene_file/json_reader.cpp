@@ -7,8 +7,45 @@
 
 namespace mpm::bullet::scene_file {
 
+namespace {
+
+/// A float as mpm::validate::show writes it: the shortest text that reads back, "nan" for
+/// any NaN, "inf" and "-inf".
+std::string number(float value) {
+  if (std::isnan(value)) return "nan";
+  std::string text;
+  for (int digits = 6; digits <= 9; ++digits) {
+    std::ostringstream s;
+    s.precision(digits);
+    s << value;
+    text = s.str();
+    if (std::strtof(text.c_str(), nullptr) == value || !std::isfinite(value)) break;
+  }
+  return text;
+}
+
+/// JSON text, but with nan, inf and -inf where dump() writes null: a number from Python
+/// (Scene(settings), add_object) may be any double.
+std::string text(const Json& value) {
+  if (value.is_number_float() && !std::isfinite(value.get<double>())) return number((float)value.get<double>());
+  if (value.is_array()) {
+    std::string s = "[";
+    for (size_t i = 0; i < value.size(); ++i) s += (i ? "," : "") + text(value[i]);
+    return s + "]";
+  }
+  if (value.is_object()) {
+    std::string s = "{";
+    for (auto it = value.begin(); it != value.end(); ++it)
+      s += (it == value.begin() ? "" : ",") + Json(it.key()).dump() + ":" + text(it.value());
+    return s + "}";
+  }
+  return value.dump();
+}
+
+}  // namespace
+
 std::string show(const Json& value) {
-  std::string s = value.dump();
+  std::string s = text(value);
   // a whole object in a one-line message helps nobody
   if (s.size() > 60) s = s.substr(0, 57) + "...";
   return s;
@@ -18,16 +55,7 @@ void fail(const std::string& path, const Json& value, const std::string& why) {
   throw InvalidArgument(path, show(value), why);
 }
 
-void fail(const std::string& path, float value, const std::string& why) {
-  for (int digits = 6; digits <= 9; ++digits) {  // as mpm::validate::show
-    std::ostringstream s;
-    s.precision(digits);
-    s << value;
-    if (std::strtof(s.str().c_str(), nullptr) == value || !std::isfinite(value) || digits == 9)
-      throw InvalidArgument(path, s.str(), why);
-  }
-  throw InvalidArgument(path, "?", why);
-}
+void fail(const std::string& path, float value, const std::string& why) { throw InvalidArgument(path, number(value), why); }
 
 void failMissing(const std::string& path, const std::string& why) { throw InvalidArgument(path, "missing", why); }
 

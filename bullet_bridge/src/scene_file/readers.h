@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "mpm/output.h"
+#include "mpm/sdf_grid.h"
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/scene_file.h"
@@ -30,7 +31,8 @@ struct Body {
   bool coupled = false;
   std::optional<Keyframes> script;
   std::unique_ptr<NeedleDriver> driver;  ///< a script applied through forces
-  std::optional<io::Rgb> color;          ///< drawn in the pictures (box and sphere shapes)
+  std::optional<io::Rgb> color;          ///< drawn in the pictures (every shape but a plane)
+  TriangleMesh mesh;                     ///< a mesh shape's triangles, as the pictures draw it
   btVector3 frameImpulse{0, 0, 0};       ///< what the tissue gave it over the frame (shape, slicer, needle)
 };
 

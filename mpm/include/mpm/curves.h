@@ -1,6 +1,6 @@
 #pragma once
-/// Curves: thin wires the material slides along, for suturing (seed 000 section IV-C,
-/// DESIGN 5). A curve is not a solid: the grid nodes within its contact region keep only
+/// Curves: thin wires the material slides along, for suturing (CRESSim-MPM,
+/// section IV-C). A curve is not a solid: the grid nodes within its contact region keep only
 /// the part of their velocity relative to the curve that runs along the curve's tangent
 /// (then friction and drag on it), so a needle or a thread slides along itself through its
 /// track but drags the material sideways. Particles are pushed out of the wire itself.

@@ -15,7 +15,7 @@ enum class SolverType {
   MlsMpm,       ///< moving-least-squares MPM with APIC transfers (Hu et al. 2018); the default
   StandardMpm,  ///< explicit update-stress-last MPM with a PIC/FLIP blend
   PbMpm,        ///< position-based MPM (Lewin 2024): iterated constraint projection, large steps
-  /// meshless Total Lagrangian explicit dynamics (Horton et al. 2010, seed 004): the
+  /// meshless Total Lagrangian explicit dynamics (Horton et al. 2010): the
   /// particles are nodes, stress lives on a background grid of integration points; no MPM
   /// grid, no domain walls (boundary conditions come from the shapes)
   Mtled
@@ -38,8 +38,8 @@ struct PbMpmSettings {
   float rigidity = 1.f;
 };
 
-/// Parameters of SolverType::Mtled (seed 004 sections 2-3; n, alpha and the integration
-/// density are the paper's).
+/// Parameters of SolverType::Mtled (the MTLED paper, Horton et al. 2010, sections 2-3; n,
+/// alpha and the integration density are the paper's).
 struct MtledSettings {
   /// n: nearest nodes in each integration point's support domain, in [4, 32]. The linear
   /// basis has m = 4 terms; the paper takes n = 2m.
@@ -54,7 +54,7 @@ struct MtledSettings {
   /// material, by the divergence theorem from the shape functions on the cell's surface
   /// (smoothed strain, as in stabilized conforming nodal integration, Chen et al. 2001,
   /// over the background cells). Faces two cells share cancel, so the interior passes the
-  /// patch test. Seed 004 cylinder, node spacing 0.01 / 0.0083 / 0.00625 m: slip ends
+  /// patch test. The paper's cylinder, node spacing 0.01 / 0.0083 / 0.00625 m: slip ends
   /// within 0.19 / 0.40 / 0.34 % of the closed form (the rest: the voxel volume, and the
   /// end faces' second node layer, which feels the stress there as MLS is not
   /// interpolating); bonded ends +6.0 / +1.5 / +2.4 % (final force), stiff like finite
@@ -67,10 +67,10 @@ struct MtledSettings {
   /// coarse spacings only because that softness offsets the coarse model's stiffness.
   bool smoothedStrain = true;
   /// Substep = timeStepSafety * the critical step of eq. 37, in (0, 1]. Eq. 37 is not a
-  /// bound here: the seed 004 cylinder (node spacing 0.01 m) compressed ten times faster
+  /// bound here: the paper's cylinder (node spacing 0.01 m) compressed ten times faster
   /// is stable to 0.906 of it and fails at 0.938 with smoothed strain (bench_stability);
   /// with the point derivatives it ran at 0.6 and diverged at 0.9, stable to 0.625 and
-  /// failing at 0.656 in the fast compression (seed 004 found 1.34 on its own cylinder).
+  /// failing at 0.656 in the fast compression (the paper found 1.34 on its own cylinder).
   float timeStepSafety = 0.5f;
 };
 
@@ -105,7 +105,7 @@ struct DomainSettings {
 };
 
 /// The CFL number a solver takes when SubstepPolicy::cflNumber is 0, each a stated margin
-/// under the largest stable step bench_stability measured (its step sweep, seed 004's
+/// under the largest stable step bench_stability measured (its step sweep, the MTLED paper's
 /// cylinder at nu = 0.49 compressed fast; bench/results/epyc-2core/stability.md), in units of dx / c_p:
 /// - MLS-MPM 0.55: stable to 1.06, failing at 1.12 (a margin of 1.93x). Not more: at 0.6
 ///   the Python tests' mesh cube pushed 1.6 % off its box (bound 1 %) and their resting
@@ -127,7 +127,7 @@ inline float defaultCflNumber(SolverType solver) {
 /// How an `advance(dt)` is cut into substeps.
 struct SubstepPolicy {
   /// Substep = cflNumber * dx / (fastest elastic wave speed + fastest particle speed), in
-  /// [0, 1]; 0: the solver's own default (defaultCflNumber). Until issue 19 the default
+  /// [0, 1]; 0: the solver's own default (defaultCflNumber). Earlier versions' default
   /// was 0.3 for every solver (a margin of 3.5x for MLS-MPM): set 0.3 to get that back.
   float cflNumber = 0.f;
   /// If > 0, use exactly this many substeps per advance() and skip the CFL bound; at

@@ -72,7 +72,7 @@ struct ContactParams {
   /// 0: the nodes inside the solid, right for a tool pressing into tissue from outside
   /// (a band makes contact start `band` early: Hertz force +43 % at 0.25 dx, R = 4 dx).
   /// A shape holding material from the start (a compression plate, a clamp face) wants
-  /// half a cell, 0.5 dx, so the node layer nearest its face follows it: seed 004's
+  /// half a cell, 0.5 dx, so the node layer nearest its face follows it: the MTLED paper's
   /// cylinder between slip plates measured 25 % soft with 0 and 4 % with 0.5 dx at
   /// H = 10 dx (2.6 % at 20 dx). A Bonded shape holds every node within the band, and on a
   /// grid its band is never less than 0.5 dx.

@@ -1,5 +1,5 @@
 #pragma once
-/// Slicers: blades that cut the material (seed 000 section IV-B, DESIGN 5). A slicer is
+/// Slicers: blades that cut the material (CRESSim-MPM, section IV-B). A slicer is
 /// not a solid: its faces push the material aside within a thin band, its spine pushes
 /// like a blunt rod and never cuts, and where its blade passes the material is separated
 /// for good. Moved like a kinematic shape (pose and velocities before each advance), its

@@ -7,6 +7,8 @@
 namespace mpm::validate {
 
 std::string show(float v) {
+  // not "-nan": a NaN's sign bit means nothing, and 0 / 0 on x86 sets it
+  if (std::isnan(v)) return "nan";
   // the shortest text that reads back as the same float: 0.45f prints as "0.45"
   for (int digits = 6; digits <= 9; ++digits) {
     std::ostringstream s;
