@@ -1,5 +1,5 @@
-// A frame's picture (the tissue, needles and threads through the splat renderer) and its
-// CSV row.
+// A frame's picture (the tissue, needles and threads through the splat renderer), its PLY
+// files (the tissue's particles; the tools as points and polylines) and its CSV row.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -24,28 +24,17 @@ void addPolyline(const std::vector<btVector3>& p, float spacing, std::vector<Vec
   if (!p.empty()) out.push_back(vec(p.back()));
 }
 
-}  // namespace
+/// What is drawn besides the tissue: needles' arcs and threads as polylines, slicers' blades
+/// and coloured bodies as points; `radius` is the splat's in the picture.
+struct ToolDrawing {
+  std::vector<Vec3f> points;
+  bool polyline = false;
+  io::Rgb colour;
+  float radius = 0.f;
+};
 
-bool LoadedScene::pngDue() const {
-  const int every = impl_->output.pngEvery;
-  return every > 0 && (frame() % every == 0 || frame() == frameCount());
-}
-
-void LoadedScene::writePng(const std::string& path) const {
-  const Impl& s = *impl_;
-  const Output& o = s.output;
-  io::SplatRenderer renderer(o.camera);
-  if (o.ground) renderer.setGround(o.ground->first, o.ground->second);
-  const float dx = s.scene->settings().dx;
-  const float radius = o.particleRadius > 0.f ? o.particleRadius : 0.3f * dx;
-  std::vector<Vec3f> x, shown;
-  for (const Object& obj : s.objects) {
-    s.scene->readPositions(obj.id, x);
-    shown.clear();
-    for (const Vec3f& p : x)
-      if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
-    renderer.addParticles(shown, radius, obj.color);
-  }
+std::vector<ToolDrawing> toolDrawings(const LoadedScene::Impl& s, float wire) {
+  std::vector<ToolDrawing> out;
   for (const auto& b : s.bodies) {  // a body given a colour: a lattice of points inside its box or sphere
     if (!b->color) continue;
     const btCollisionShape* shape = b->shape.get();
@@ -60,48 +49,103 @@ void LoadedScene::writePng(const std::string& path) const {
     }
     const btTransform t = b->body->getCenterOfMassTransform();
     const btVector3 step = (hi - lo) / 8;
-    std::vector<Vec3f> points;
+    ToolDrawing d{{}, false, *b->color, 0.6f * (float)step.x()};
     for (int i = 0; i < 8; ++i)
       for (int j = 0; j < 8; ++j)
         for (int k = 0; k < 8; ++k) {
           const btVector3 p = lo + step * btVector3(i + 0.5f, j + 0.5f, k + 0.5f);
-          if (!sphere || p.length() <= hi.x()) points.push_back(vec(t * p));
+          if (!sphere || p.length() <= hi.x()) d.points.push_back(vec(t * p));
         }
-    renderer.addParticles(points, 0.6f * step.x(), *b->color);
+    out.push_back(std::move(d));
   }
-  const float wire = 0.2f * radius;
   for (const Needle& n : s.needles) {
-    std::vector<btVector3> arc;
     const btTransform frame = n.body->body->getCenterOfMassTransform() *
                               btTransform(btQuaternion(n.arc.pose.rotation.x, n.arc.pose.rotation.y,
                                                        n.arc.pose.rotation.z, n.arc.pose.rotation.w),
                                           btVector3(n.arc.pose.position.x, n.arc.pose.position.y, n.arc.pose.position.z));
+    ToolDrawing d{{}, true, {90, 95, 120}, 2.f * wire};
     for (int i = 0; i <= 32; ++i) {
       const float a = n.arc.startAngle + (n.arc.endAngle - n.arc.startAngle) * i / 32;
-      arc.push_back(frame * btVector3(n.arc.radius * std::cos(a), n.arc.radius * std::sin(a), 0));
+      d.points.push_back(vec(frame * btVector3(n.arc.radius * std::cos(a), n.arc.radius * std::sin(a), 0)));
     }
-    std::vector<Vec3f> points;
-    addPolyline(arc, wire, points);
-    renderer.addParticles(points, 2.f * wire, {90, 95, 120});
+    out.push_back(std::move(d));
   }
   for (const Slicer& sl : s.slicers) {  // the blade's face, as the tissue saw it
     const ShapeState blade = s.scene->slicerState(sl.id);
-    const QuadSlicerDesc& d = sl.blade;
+    const QuadSlicerDesc& q = sl.blade;
     const btTransform frame(btQuaternion(blade.pose.rotation.x, blade.pose.rotation.y, blade.pose.rotation.z,
                                          blade.pose.rotation.w),
                             btVector3(blade.pose.position.x, blade.pose.position.y, blade.pose.position.z));
-    std::vector<Vec3f> steel;  // as the cutting demo draws it: 31 x 41 points
-    for (int i = 0; i <= 30; ++i)
+    ToolDrawing d{{}, false, {170, 175, 190}, std::min(q.halfLength / 15.f, q.width / 40.f)};
+    for (int i = 0; i <= 30; ++i)  // as the cutting demo draws it: 31 x 41 points
       for (int j = 0; j <= 40; ++j)
-        steel.push_back(vec(frame * btVector3(d.halfLength * (i / 15.f - 1.f), d.width * j / 40.f, 0)));
-    renderer.addParticles(steel, std::min(d.halfLength / 15.f, d.width / 40.f), {170, 175, 190});
+        d.points.push_back(vec(frame * btVector3(q.halfLength * (i / 15.f - 1.f), q.width * j / 40.f, 0)));
+    out.push_back(std::move(d));
   }
   for (const Thread& t : s.threads) {
-    std::vector<Vec3f> points;
-    addPolyline(threadPoints(t.multibody), wire, points);
-    renderer.addParticles(points, wire, {40, 90, 200});
+    ToolDrawing d{{}, true, {40, 90, 200}, wire};
+    for (const btVector3& p : threadPoints(t.multibody)) d.points.push_back(vec(p));
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+float splatRadius(const LoadedScene::Impl& s) {
+  return s.output.particleRadius > 0.f ? s.output.particleRadius : 0.3f * s.scene->settings().dx;
+}
+
+}  // namespace
+
+bool LoadedScene::pngDue() const {
+  const int every = impl_->output.pngEvery;
+  return every > 0 && (frame() % every == 0 || frame() == frameCount());
+}
+
+bool LoadedScene::plyDue() const { return impl_->output.ply && pngDue(); }
+
+void LoadedScene::writePng(const std::string& path) const {
+  const Impl& s = *impl_;
+  const Output& o = s.output;
+  io::SplatRenderer renderer(o.camera);
+  if (o.ground) renderer.setGround(o.ground->first, o.ground->second);
+  const float radius = splatRadius(s);
+  std::vector<Vec3f> x, shown;
+  for (const Object& obj : s.objects) {
+    s.scene->readPositions(obj.id, x);
+    shown.clear();
+    for (const Vec3f& p : x)
+      if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
+    renderer.addParticles(shown, radius, obj.color);
+  }
+  const float wire = 0.2f * radius;
+  for (const ToolDrawing& d : toolDrawings(s, wire)) {
+    if (!d.polyline) {
+      renderer.addParticles(d.points, d.radius, d.colour);
+      continue;
+    }
+    std::vector<btVector3> line;
+    for (const Vec3f& p : d.points) line.push_back(btVector3(p.x, p.y, p.z));
+    std::vector<Vec3f> splats;
+    addPolyline(line, wire, splats);
+    renderer.addParticles(splats, d.radius, d.colour);
   }
   renderer.writePng(path);
+}
+
+void LoadedScene::writePly(const std::string& tissuePath, const std::string& toolsPath) const {
+  const Impl& s = *impl_;
+  io::PlyFrame tissue;  // every particle, in its object's order and colour (no cutaway)
+  std::vector<Vec3f> x;
+  for (const Object& obj : s.objects) {
+    s.scene->readPositions(obj.id, x);
+    tissue.addPoints(x, obj.color);
+  }
+  io::writePly(tissuePath, tissue);
+  if (toolsPath.empty()) return;
+  io::PlyFrame tools;
+  for (const ToolDrawing& d : toolDrawings(s, 0.2f * splatRadius(s)))
+    d.polyline ? tools.addPolyline(d.points, d.colour) : tools.addPoints(d.points, d.colour);
+  if (!tools.points.empty()) io::writePly(toolsPath, tools);  // an empty PLY is no help to a viewer
 }
 
 std::string LoadedScene::csvHeader() const {

@@ -167,21 +167,23 @@ void LoadedScene::Impl::hookTicks() {
   coupler->setPreTickCallback([this](float dt) {
     for (auto& b : bodies) {
       if (!b->driver) continue;
-      const double t = bulletTime + dt;  // where the body should be after this tick
-      btVector3 v, w;
-      b->script->velocity(t, v, w);
+      const double t = b->heldAt.value_or(bulletTime + dt);  // where the body should be after this tick
+      btVector3 v(0, 0, 0), w(0, 0, 0);
+      if (!b->heldAt) b->script->velocity(t, v, w);
       b->driver->setTarget(b->script->pose(t), v, w);
       b->driver->tick(dt);
     }
   });
   coupler->setUserTickCallback([this](float dt) {
     bulletTime += dt;
-    if (!coupler->tissueAdvanced()) return;  // an advance's impulses cover its whole interval
-    auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
-    for (auto& b : bodies)
-      if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
-    for (Slicer& sl : slicers) add(sl.body, scene->slicerImpulse(sl.id));
-    for (Needle& n : needles) add(n.body, scene->curveImpulse(n.curve));
+    if (coupler->tissueAdvanced()) {  // an advance's impulses cover its whole interval
+      auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
+      for (auto& b : bodies)
+        if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
+      for (Slicer& sl : slicers) add(sl.body, scene->slicerImpulse(sl.id));
+      for (Needle& n : needles) add(n.body, scene->curveImpulse(n.curve));
+    }
+    if (tickCallback) tickCallback(dt);
   });
 }
 
@@ -189,19 +191,29 @@ LoadedScene::LoadedScene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 LoadedScene::~LoadedScene() = default;
 
 std::unique_ptr<LoadedScene> LoadedScene::fromString(const std::string& json, const std::string& baseDir,
-                                                     const std::string& overrides) {
+                                                     const std::vector<std::string>& overrides) {
   Json root = parseJson(json, "(scene)");
-  if (!overrides.empty()) root.merge_patch(parseJson(overrides, "(overrides)"));
+  for (const std::string& patch : overrides)
+    if (!patch.empty()) root.merge_patch(parseJson(patch, "(overrides)"));
   return std::unique_ptr<LoadedScene>(new LoadedScene(build(root, baseDir)));
 }
 
-std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::string& overrides) {
+std::unique_ptr<LoadedScene> LoadedScene::fromString(const std::string& json, const std::string& baseDir,
+                                                     const std::string& overrides) {
+  return fromString(json, baseDir, std::vector<std::string>{overrides});
+}
+
+std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::vector<std::string>& overrides) {
   std::ifstream in(path);
   if (!in) throw InvalidArgument("(scene file)", path, "cannot be opened");
   std::stringstream text;
   text << in.rdbuf();
   const size_t slash = path.rfind('/');
   return fromString(text.str(), slash == std::string::npos ? "." : path.substr(0, slash), overrides);
+}
+
+std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::string& overrides) {
+  return fromFile(path, std::vector<std::string>{overrides});
 }
 
 Scene& LoadedScene::scene() { return *impl_->scene; }
@@ -222,6 +234,38 @@ btMultiBody* LoadedScene::thread(const std::string& name) const {
     if (t.name == name) return t.multibody;
   throw InvalidArgument("LoadedScene::thread", name, "no thread of this name");
 }
+
+btMultiBodyPoint2Point* LoadedScene::threadPin(const std::string& thread, int point) const {
+  for (const Thread& t : impl_->threads)
+    if (t.name == thread) {
+      for (const auto& [p, pin] : t.pins)
+        if (p == point) return pin;
+      throw InvalidArgument("LoadedScene::threadPin", std::to_string(point), "thread \"" + thread + "\" has no pin at this point");
+    }
+  throw InvalidArgument("LoadedScene::threadPin", thread, "no thread of this name");
+}
+
+void LoadedScene::holdBody(const std::string& name) {
+  Body* b = impl_->findBody(name);
+  if (!b || !b->driver) throw InvalidArgument("LoadedScene::holdBody", name, "no driven body of this name");
+  if (!b->heldAt) b->heldAt = impl_->bulletTime;
+}
+
+bool LoadedScene::held(const std::string& name) const {
+  const Body* b = impl_->findBody(name);
+  return b && b->heldAt.has_value();
+}
+
+btVector3 LoadedScene::bodyForce(const std::string& name) const {
+  const Body* b = impl_->findBody(name);
+  if (!b) throw InvalidArgument("LoadedScene::bodyForce", name, "no body of this name");
+  const int ticks = std::max(1, (int)std::lround(impl_->output.frameTime / impl_->tick));
+  return b->frameImpulse / (ticks * impl_->tick);
+}
+
+double LoadedScene::bulletTime() const { return impl_->bulletTime; }
+float LoadedScene::tick() const { return impl_->tick; }
+void LoadedScene::setTickCallback(std::function<void(float dt)> callback) { impl_->tickCallback = std::move(callback); }
 
 int LoadedScene::frameCount() const { return impl_->output.frames; }
 float LoadedScene::frameTime() const { return impl_->output.frameTime; }

@@ -45,6 +45,7 @@ void readOutput(Node* n, LoadedScene::Impl& s) {
   if (!(o.frameTime / s.tick <= 1e6f))
     fail(n->at("frameTime"), o.frameTime, "more than 1e6 Bullet ticks (world.tick) per frame");
   if (n->read("pngEvery", o.pngEvery) && o.pngEvery < 0) fail(n->at("pngEvery"), o.pngEvery, "must be >= 0 (0: none)");
+  n->read("ply", o.ply);
   if (n->has("camera")) {
     Node c = n->object("camera");
     c.read("eye", o.camera.eye);

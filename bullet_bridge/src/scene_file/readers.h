@@ -3,8 +3,10 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 #include <btBulletDynamicsCommon.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -32,6 +34,7 @@ struct Body {
   std::unique_ptr<NeedleDriver> driver;  ///< a script applied through forces
   std::optional<io::Rgb> color;          ///< drawn in the pictures (box and sphere shapes)
   btVector3 frameImpulse{0, 0, 0};       ///< what the tissue gave it over the frame (shape, slicer, needle)
+  std::optional<double> heldAt;          ///< Bullet's time its script was stopped at (LoadedScene::holdBody)
 };
 
 struct Object {
@@ -55,12 +58,14 @@ struct Slicer {
 struct Thread {
   std::string name;
   btMultiBody* multibody = nullptr;  ///< destroySutureThread releases it
+  std::vector<std::pair<int, btMultiBodyPoint2Point*>> pins;  ///< by point; released with the thread
 };
 
 struct Output {
   int frames = 60;
   float frameTime = 1.f / 60;
   int pngEvery = 0;  ///< 0: no pictures
+  bool ply = true;   ///< PLY files beside each picture
   io::Camera camera;
   std::optional<std::pair<float, float>> ground;  ///< height, half size [m]
   float particleRadius = 0.f;                     ///< [m]; 0: 0.3 dx
@@ -100,6 +105,7 @@ struct LoadedScene::Impl {
   std::vector<scene_file::Slicer> slicers;
   std::vector<scene_file::Thread> threads;
   scene_file::Output output;
+  std::function<void(float)> tickCallback;  ///< LoadedScene::setTickCallback
 
   ~Impl();
   scene_file::Body* findBody(const std::string& name) const;

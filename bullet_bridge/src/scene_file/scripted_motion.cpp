@@ -24,7 +24,7 @@ btTransform Keyframes::pose(double t) const {
   }
   const Keyframe &a = frames[i - 1], &b = frames[i];
   double u = std::clamp((t - a.time) / (b.time - a.time), 0.0, 1.0);
-  if (smoothstep) u = u * u * (3 - 2 * u);
+  if (b.smoothstep.value_or(smoothstep)) u = u * u * (3 - 2 * u);
   const float s = (float)u;
   const Vec3f p = a.position + s * (b.position - a.position);
   const btVector3 axisA = btVector3(a.axis.x, a.axis.y, a.axis.z).normalized();

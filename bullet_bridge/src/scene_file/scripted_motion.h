@@ -7,6 +7,7 @@
 #include <LinearMath/btTransform.h>
 #include <btBulletDynamicsCommon.h>
 
+#include <optional>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -19,6 +20,7 @@ struct Keyframe {
   Vec3f position{0.f, 0.f, 0.f};
   Vec3f axis{0.f, 0.f, 1.f};
   float angle = 0.f;  ///< [rad] about axis: turns beyond half a circle are kept between two keyframes
+  std::optional<bool> smoothstep;  ///< the stretch into this keyframe; unset: the script's
 };
 
 struct Keyframes {
