@@ -1,4 +1,4 @@
-// Cutting (issue 15, DESIGN 5): slicers separate the material they pass in every grid
+// Cutting: slicers separate the material they pass in every grid
 // solver. The side test at unit level; no mass or momentum crosses a blade; a block is two
 // pieces after a full cut and one before the blade arrives; a partial cut stops where the
 // blade stopped; a cut stays cut after the blade has gone (the halves pulled apart carry

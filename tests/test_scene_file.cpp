@@ -71,7 +71,9 @@ TEST_P(SceneFiles, LoadsAndRunsTwoFrames) {
 // the patches keep each scene's layout and only coarsen it (dx, frame length, picture size)
 INSTANTIATE_TEST_SUITE_P(
     AssetsScenes, SceneFiles,
-    ::testing::Values(SceneCase{"coupling.json", R"({"settings": {"dx": 0.02, "cpuThreads": 1},
+    ::testing::Values(SceneCase{"block_drop.json", R"({"settings": {"dx": 0.0625, "cpuThreads": 1},
+                                                      "output": {"camera": {"width": 160, "height": 100}}})"},
+                      SceneCase{"coupling.json", R"({"settings": {"dx": 0.02, "cpuThreads": 1},
                                                     "output": {"camera": {"width": 160, "height": 100}}})"},
                       SceneCase{"cutting.json", R"({"settings": {"dx": 0.01, "cpuThreads": 1},
                                                    "output": {"camera": {"width": 160, "height": 100}}})"},
@@ -87,7 +89,7 @@ TEST(SceneFile, EveryFileInAssetsScenesIsTested) {
     if (e.path().extension() == ".json" && e.path().filename() != "scene.schema.json")
       files.push_back(e.path().filename().string());
   std::sort(files.begin(), files.end());
-  EXPECT_EQ(files, (std::vector<std::string>{"coupling.json", "cutting.json", "suturing.json"}));
+  EXPECT_EQ(files, (std::vector<std::string>{"block_drop.json", "coupling.json", "cutting.json", "suturing.json"}));
 }
 
 // --- malformed files: each names its key path ------------------------------------------

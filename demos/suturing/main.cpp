@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
     const mpm::ParticleObjectId left = loaded->object("left"), right = loaded->object("right");
     btRigidBody* needle = loaded->body("needle");
     btMultiBody* thread = loaded->thread("thread");
-    const int eyePoint = thread->getNumLinks();  // the thread's last point, pinned at the eye
+    const int eyePoint = (int)mpm::bullet::threadPoints(thread).size() - 1;  // its last point, pinned at the eye
     btMultiBodyPoint2Point* eyePin = loaded->threadPin("thread", eyePoint);
     const btVector3 eyeInNeedle = eyePin->getPivotInB();
     const mpm::CurveId needleCurve = loaded->coupler().needleOf(needle);

@@ -53,6 +53,8 @@ class LoadedScene {
   btRigidBody* body(const std::string& name) const;
   ParticleObjectId object(const std::string& name) const;
   btMultiBody* thread(const std::string& name) const;
+  /// The material the file gave the named particle object.
+  const Material& material(const std::string& object) const;
 
   /// The pin the file put on `point` of `thread` (its force: pinForce); throws
   /// InvalidArgument when there is none.

@@ -229,6 +229,11 @@ ParticleObjectId LoadedScene::object(const std::string& name) const {
     if (o.name == name) return o.id;
   throw InvalidArgument("LoadedScene::object", name, "no object of this name");
 }
+const Material& LoadedScene::material(const std::string& object) const {
+  for (const Object& o : impl_->objects)
+    if (o.name == object) return o.material;
+  throw InvalidArgument("LoadedScene::material", object, "no object of this name");
+}
 btMultiBody* LoadedScene::thread(const std::string& name) const {
   for (const Thread& t : impl_->threads)
     if (t.name == name) return t.multibody;

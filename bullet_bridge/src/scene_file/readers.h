@@ -41,6 +41,7 @@ struct Object {
   std::string name;
   ParticleObjectId id;
   io::Rgb color{215, 110, 105};
+  Material material;  ///< as the file gave it
 };
 
 struct Needle {
