@@ -486,6 +486,25 @@ TEST(SceneFileMotion, AKeyframesEaseAndAHoldStopTheStretch) {
   EXPECT_THROW(loaded->holdBody("nothing"), mpm::InvalidArgument);
 }
 
+// A slow turn's feedforward is the stretch's own angular speed: a driven body (time
+// constant 0.1 s) turning at 0.05 rad/s sits on its script after 1 s, not w tau = 5e-3 rad
+// behind it. Measured before: 4.5e-3 rad behind (the central difference of two float rotations
+// 1e-4 rad apart gave w = 0, leaving the driver's lag; the suturing needle turned 5 % behind).
+TEST(SceneFileMotion, ASlowTurnIsDrivenOnItsScript) {
+  auto loaded = LoadedScene::fromString(std::string("{") + kDomain + R"(,
+    "world": {"tick": 0.01, "gravity": [0, 0, 0]},
+    "bodies": [{"name": "tool", "shape": {"type": "sphere", "radius": 0.01}, "mass": 0.1, "coupled": false,
+                "motion": {"mode": "driver", "ease": "linear",
+                           "limits": {"maxForce": 100, "maxTorque": 100, "timeConstant": 0.1},
+                           "keyframes": [{"time": 0, "position": [0, 0.2, 0], "rotation": {"axis": [0, 0, 1], "angle": 0}},
+                                         {"time": 10, "position": [0, 0.2, 0], "rotation": {"axis": [0, 0, 1], "angle": 0.5}}]}}],
+    "output": {"frameTime": 0.1}})");
+  for (int f = 0; f < 10; ++f) loaded->advanceFrame();
+  const btQuaternion q = loaded->body("tool")->getOrientation();
+  EXPECT_NEAR(2 * std::atan2(q.z(), q.w()), 0.05, 5e-4);
+  EXPECT_NEAR(loaded->body("tool")->getAngularVelocity().z(), 0.05, 5e-4);
+}
+
 TEST(SceneFileCheckpoint, CouplerCheckpointResumesTheRun) {
   const char* coarse = R"({"settings": {"dx": 0.02, "cpuThreads": 1, "backend": "Cpu"}})";
   auto loaded = LoadedScene::fromFile(mpm::test::assetPath("scenes/coupling.json"), coarse);

@@ -32,7 +32,10 @@ class LoadedScene {
  public:
   /// Reads and builds the scene in `path`. `overrides` is a JSON merge patch (RFC 7386)
   /// applied to the file before it is read, e.g. `{"settings": {"dx": 0.02}}` for a coarse
-  /// run; empty: none. Relative file names in the scene are relative to its folder.
+  /// run; empty: none. One departure: a top-level array whose elements in the patch all
+  /// carry a "name" of the file's array patches those elements only, e.g.
+  /// `{"objects": [{"name": "left", "halfExtents": [0.01, 0.01, 0.01]}]}` (any other array
+  /// replaces the file's). Relative file names in the scene are relative to its folder.
   static std::unique_ptr<LoadedScene> fromFile(const std::string& path, const std::string& overrides = "");
   /// The same with several merge patches, applied in their order (a command line's options).
   static std::unique_ptr<LoadedScene> fromFile(const std::string& path, const std::vector<std::string>& overrides);
@@ -72,6 +75,9 @@ class LoadedScene {
   float tick() const;
   /// Called at the end of every Bullet tick with its length, after the frame's sums.
   void setTickCallback(std::function<void(float dt)> callback);
+  /// Called at the start of every Bullet tick, after the drivers have pushed their bodies:
+  /// the velocities the tick's tissue advance will see.
+  void setPreTickCallback(std::function<void(float dt)> callback);
 
   /// output.frames and output.frameTime [s].
   int frameCount() const;

@@ -62,6 +62,36 @@ Json parseJson(const std::string& text, const std::string& what) {
   }
 }
 
+/// RFC 7386 merge patch, but for a top-level array ("objects", "bodies", "threads") whose
+/// elements in the patch all name an element of the file's array: those elements are
+/// patched, each by its own merge patch, and the rest left as they are. So a test names the
+/// one block it changes instead of restating the whole array.
+void mergeOverride(Json& root, const Json& patch) {
+  if (!patch.is_object() || !root.is_object()) {
+    root.merge_patch(patch);
+    return;
+  }
+  Json rest = patch;
+  for (auto it = patch.begin(); it != patch.end(); ++it) {
+    const Json& items = it.value();
+    if (!items.is_array() || items.empty() || !root.contains(it.key()) || !root[it.key()].is_array()) continue;
+    Json& target = root[it.key()];
+    std::vector<Json*> named;
+    for (const Json& item : items) {
+      Json* found = nullptr;
+      if (item.is_object() && item.contains("name"))
+        for (Json& t : target)
+          if (t.is_object() && t.contains("name") && t["name"] == item["name"]) found = &t;
+      if (!found) break;
+      named.push_back(found);
+    }
+    if (named.size() != items.size()) continue;  // not all named: the array is replaced
+    for (size_t i = 0; i < items.size(); ++i) named[i]->merge_patch(items[i]);
+    rest.erase(it.key());
+  }
+  root.merge_patch(rest);
+}
+
 std::unique_ptr<LoadedScene::Impl> build(const Json& root, const std::string& baseDir) {
   auto s = std::make_unique<LoadedScene::Impl>();
   s->baseDir = baseDir;
@@ -173,6 +203,7 @@ void LoadedScene::Impl::hookTicks() {
       b->driver->setTarget(b->script->pose(t), v, w);
       b->driver->tick(dt);
     }
+    if (preTickCallback) preTickCallback(dt);
   });
   coupler->setUserTickCallback([this](float dt) {
     bulletTime += dt;
@@ -194,7 +225,7 @@ std::unique_ptr<LoadedScene> LoadedScene::fromString(const std::string& json, co
                                                      const std::vector<std::string>& overrides) {
   Json root = parseJson(json, "(scene)");
   for (const std::string& patch : overrides)
-    if (!patch.empty()) root.merge_patch(parseJson(patch, "(overrides)"));
+    if (!patch.empty()) mergeOverride(root, parseJson(patch, "(overrides)"));
   return std::unique_ptr<LoadedScene>(new LoadedScene(build(root, baseDir)));
 }
 
@@ -271,6 +302,9 @@ btVector3 LoadedScene::bodyForce(const std::string& name) const {
 double LoadedScene::bulletTime() const { return impl_->bulletTime; }
 float LoadedScene::tick() const { return impl_->tick; }
 void LoadedScene::setTickCallback(std::function<void(float dt)> callback) { impl_->tickCallback = std::move(callback); }
+void LoadedScene::setPreTickCallback(std::function<void(float dt)> callback) {
+  impl_->preTickCallback = std::move(callback);
+}
 
 int LoadedScene::frameCount() const { return impl_->output.frames; }
 float LoadedScene::frameTime() const { return impl_->output.frameTime; }

@@ -106,7 +106,8 @@ struct LoadedScene::Impl {
   std::vector<scene_file::Slicer> slicers;
   std::vector<scene_file::Thread> threads;
   scene_file::Output output;
-  std::function<void(float)> tickCallback;  ///< LoadedScene::setTickCallback
+  std::function<void(float)> tickCallback;     ///< LoadedScene::setTickCallback
+  std::function<void(float)> preTickCallback;  ///< LoadedScene::setPreTickCallback
 
   ~Impl();
   scene_file::Body* findBody(const std::string& name) const;

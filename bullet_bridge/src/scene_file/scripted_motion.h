@@ -30,7 +30,8 @@ struct Keyframes {
   /// interpolated (so a keyframe may turn by more than pi); otherwise the rotations are
   /// slerped.
   btTransform pose(double t) const;
-  /// Velocities by central difference over +-1 ms (as the demos' scripts do).
+  /// Velocities: the stretch's derivative at t (zero where the pose is held); between
+  /// keyframes of different axes the turn by central difference over +-1 ms.
   void velocity(double t, btVector3& v, btVector3& w) const;
 };
 
