@@ -391,6 +391,25 @@ TEST(SceneFileThreads, APathMeasuredFromTheLastCornerEndsThere) {
   EXPECT_THROW(loaded->threadPin("thread", 0), mpm::InvalidArgument) << "point 0 is the fixed base, not pinned";
 }
 
+// An override names the one element it changes: the right block's patch keeps its
+// material and the left block; an array whose elements name nothing in the file replaces it.
+TEST(SceneFile, AnOverrideOfANamedElementPatchesThatElementOnly) {
+  const std::string file = mpm::test::assetPath("scenes/suturing.json");
+  const char* coarse = R"({"settings": {"dx": 0.005, "cpuThreads": 1}})";
+  auto whole = LoadedScene::fromFile(file, coarse);
+  auto patched = LoadedScene::fromFile(
+      file, std::vector<std::string>{coarse, R"({"objects": [{"name": "right", "halfExtents": [0.015, 0.01, 0.0075]}]})"});
+  std::vector<mpm::Vec3f> a, b;
+  whole->scene().readPositions(whole->object("right"), a);
+  patched->scene().readPositions(patched->object("right"), b);
+  EXPECT_EQ(b.size() * 2, a.size()) << "half as deep";
+  EXPECT_EQ(patched->material("right").fractureToughness, 200.f) << "the rest of the block is the file's";
+  EXPECT_EQ(patched->scene().particleCount(), whole->scene().particleCount() - b.size());
+  auto replaced = LoadedScene::fromFile(
+      file, std::vector<std::string>{coarse, R"({"objects": [{"name": "only", "primitive": "Box", "center": [0, 0.02, 0], "halfExtents": [0.01, 0.01, 0.01]}]})"});
+  EXPECT_THROW(replaced->object("left"), mpm::InvalidArgument);
+}
+
 // --- PLY frames ------------------------------------------------------------------------
 
 // The tissue file holds every particle (the cutaway is the picture's only) in its object's

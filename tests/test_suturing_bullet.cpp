@@ -22,9 +22,11 @@
 #include "bullet_test_world.h"
 #include "mpm/scene.h"
 #include "mpm_bullet/coupler.h"
+#include "mpm_bullet/scene_file.h"
 #include "mpm_bullet/suture.h"
 #include "pieces.h"
 #include "suture_thread.h"
+#include "test_paths.h"
 #include "wound_gap.h"
 
 namespace mpm {
@@ -40,8 +42,9 @@ using test::ThreadWatch;
 using test::threadTissueSettings;
 using test::tissueBlock;
 
-// (e) The pass (the demo's set-up on the blocks of PullingTheStitch,
-// 1.25 cm deep, and a faster turn): a half-circle needle of 12 mm (a 100 g body driven by
+// (e) The pass: the suturing scene (assets/scenes/suturing.json, patched: the blocks of
+// PullingTheStitch, 1.25 cm deep, in its grid, gravity off, and a faster turn; the needle,
+// its driver, the thread and its path are the file's): a half-circle needle of 12 mm (a 100 g body driven by
 // a NeedleDriver, coupled with addNeedle; toughness G_c 200 J/m^2, puncture force 0.03 N)
 // turns 365 degrees about its centre 6 mm above the tops in 2.5 s: in through block 1,
 // under the 6 mm gap, out of block 2, until the eye 5 mm behind its tail is out. Its eye
@@ -53,91 +56,37 @@ using test::tissueBlock;
 // the only thing that moves them); the needle and thread cut nothing: each block is one
 // piece.
 TEST(NeedlePass, DrawsTheThreadThroughBothBlocks) {
-  BulletWorld bw(WorldType::MultiBody, 0.f);
-  bw.world->getSolverInfo().m_numIterations = kThreadIterations;
-  const float tick = 1.f / 9600;
-  SceneSettings settings = threadTissueSettings();
-  settings.domain.upper.y = 0.05f;
-  settings.domain.lower.z = -0.03f;
-  settings.domain.upper.z = 0.03f;
-  Scene scene(settings);
+  auto loaded = bullet::LoadedScene::fromFile(test::assetPath("scenes/suturing.json"), R"({
+    "settings": {"domain": {"lower": [-0.04, -0.02, -0.03], "upper": [0.04, 0.05, 0.03]}, "gravity": [0, 0, 0]},
+    "objects": [{"name": "left", "center": [-0.013, 0.01, 0], "halfExtents": [0.01, 0.01, 0.00625]},
+                {"name": "right", "center": [0.013, 0.01, 0], "halfExtents": [0.01, 0.01, 0.00625]}],
+    "bodies": [{"name": "needle", "motion": {"keyframes": [
+      {"time": 0.05, "position": [0, 0.026, 0], "rotation": {"axis": [0, 0, 1], "angle": 0}},
+      {"time": 2.5, "position": [0, 0.026, 0], "rotation": {"axis": [0, 0, 1], "angle": 6.3704517697793035}}]}}],
+    "output": {"frameTime": 1.0416666666666667e-4}})");
+  Scene& scene = loaded->scene();
+  const SceneSettings& settings = scene.settings();
+  const ParticleObjectId left = loaded->object("left"), right = loaded->object("right");
   const Vec3f half{0.01f, 0.01f, 0.00625f};
-  ParticleObjectDesc block = tissueBlock(half, {-0.013f, 0.01f, 0.f}, 4e4f, 0.4f, 1060.f);
-  block.material.model = MaterialModel::NeoHookeanDecoupled;
-  block.material.fractureToughness = 200.f;
-  const ParticleObjectId left = scene.addParticleObject(block);
-  block.center.x = 0.013f;
-  const ParticleObjectId right = scene.addParticleObject(block);
-  scene.addShape(test::basePlate());
-
-  // the needle: the body's centre of mass at the arc's centre, turning about +z
-  const float R = 0.012f, top = 0.02f, t0 = 0.05f, t1 = 2.5f, turn = 365.f * (float)M_PI / 180.f;
-  const btVector3 centre(0.f, top + 0.006f, 0.f);
-  auto angleAt = [&](float t) {
-    const float a = std::clamp((t - t0) / (t1 - t0), 0.f, 1.f);
-    return turn * a * a * (3 - 2 * a);
-  };
-  btRigidBody* needle = bw.addBody(new btSphereShape(0.001f), 0.1f, btTransform(btQuaternion::getIdentity(), centre));
-  needle->setMassProps(0.1f, btVector3(1e-4f, 1e-4f, 1e-4f));  // with the holder's inertia, as in the demo
-  needle->updateInertiaTensor();
-  needle->setCollisionFlags(needle->getCollisionFlags() | btCollisionObject::CF_NO_CONTACT_RESPONSE);
-  ArcDesc arc;
-  arc.radius = R;
-  arc.startAngle = 0.f;
-  arc.endAngle = (float)M_PI;
-  arc.wireRadius = 0.25e-3f;
-  arc.friction = 0.2f;
-  arc.punctureForce = 0.03f;
-  bullet::Coupler coupler(bw.world.get(), scene);
-  const CurveId needleCurve = coupler.addNeedle(needle, arc);
-  bullet::NeedleDriveLimits limits;
-  limits.maxForce = 5.f;
-  limits.maxTorque = 5.f * R;
-  limits.timeConstant = 0.005f;
-  bullet::NeedleDriver driver(needle, limits);
-
-  // the thread: knot over the wound (Bullet's fixed base), laid up from the eye, back,
-  // across and down to the knot, in the air; its other end pinned at the eye
-  bullet::SutureThreadDesc d = testThread(btVector3(0, 0, 0), btVector3(1, 0, 0), 1.f);
+  const float R = 0.012f, top = 0.02f, t1 = 2.5f;  // the arc's radius, the blocks' tops, the turn's end
+  btRigidBody* needle = loaded->body("needle");
+  btMultiBody* thread = loaded->thread("thread");
+  const CurveId needleCurve = loaded->coupler().needleOf(needle);
+  bullet::SutureThreadDesc d;  // what ThreadWatch checks against: its links, and its knot where it was laid
   d.length = 0.075f;
   d.segments = 30;
-  d.linearDensity = 5e-5f;
-  d.fixedBase = true;
-  d.maxTension = 10.f;
-  d.tick = tick;
-  const float eyeAngle = -0.005f / R;
-  const btVector3 eyeInNeedle(R * std::cos(eyeAngle), R * std::sin(eyeAngle), 0);
-  const btVector3 eye = centre + eyeInNeedle;
-  const float up = top + 0.014f, back = -0.024f;
-  std::vector<btVector3> path = bullet::threadPointsAlong(
-      {eye, btVector3(eye.x(), up, 0), btVector3(eye.x(), up, back), btVector3(-0.003f, up, back),
-       btVector3(-0.003f, up, -0.006f), btVector3(-0.003f, top + 0.004f, -0.006f)},
-      d.length / d.segments, d.segments);
-  std::reverse(path.begin(), path.end());  // knot first
-  d.start = path[0];
-  d.direction = path[1] - path[0];
-  btMultiBody* thread = bullet::makeSutureThread(bw.multiWorld, d);
-  bullet::layThreadAlong(thread, path);
-  bullet::pinThreadPoint(bw.multiWorld, thread, d.segments, needle, eyeInNeedle);
-  bullet::ThreadCoupling tc;
-  tc.friction = 0.1f;
-  tc.dynamic = true;
-  tc.addedMass = true;
-  coupler.addThread(thread, tc);
+  d.start = bullet::threadPoints(thread).front();
+  const btVector3 eyeInNeedle = loaded->threadPin("thread", d.segments)->getPivotInB();
   // the velocities the tick's advance moves the needle and the thread's points with
   btVector3 needleV, needleW;
   std::vector<btVector3> threadP, threadV;
-  coupler.setPreTickCallback([&](float dt) {
-    const float t = (float)scene.time() + dt;
-    const float w = (angleAt(t + 1e-3f) - angleAt(t - 1e-3f)) / 2e-3f;
-    driver.setTarget(btTransform(btQuaternion(btVector3(0, 0, 1), angleAt(t)), centre), btVector3(0, 0, 0),
-                     btVector3(0, 0, w));
-    driver.tick(dt);
+  loaded->setPreTickCallback([&](float) {
     needleV = needle->getLinearVelocity();
     needleW = needle->getAngularVelocity();
     threadP = bullet::threadPoints(thread);
     threadV = bullet::threadPointVelocities(thread);
   });
+  bullet::Coupler& coupler = loaded->coupler();
   const CurveId threadCurve = coupler.threadOf(thread);
   auto toBt = [](const Vec3f& v) { return btVector3(v.x, v.y, v.z); };
   // the work needle and thread do on the tissue in a tick: minus the power of the momentum
@@ -158,10 +107,9 @@ TEST(NeedlePass, DrawsTheThreadThroughBothBlocks) {
   ThreadWatch watch;
   bool brokeIn = false;
   double pin = 0, fastestNeedle = 0, energy = 0, energyAt = 0, energyBound = 0, work = 0, energyOver = -1;
-  const int ticks = (int)std::lround((t1 + 0.1f) / tick);
+  const int ticks = (int)std::lround((t1 + 0.1f) / loaded->tick());
   for (int k = 0; k < ticks; ++k) {
-    bw.world->stepSimulation(tick, 0);
-    coupler.rethrowError();
+    loaded->advanceFrame();  // one tick
     watch.check(thread, d);
     brokeIn = brokeIn || scene.tipInside(needleCurve);
     pin = std::max(pin, (double)((bullet::threadPoints(thread).back() - needle->getWorldTransform() * eyeInNeedle).length() / L));
@@ -208,9 +156,6 @@ TEST(NeedlePass, DrawsTheThreadThroughBothBlocks) {
   EXPECT_LE(energyOver, 1e-9) << "the tissue's kinetic energy exceeded the work done on it";
   EXPECT_EQ(piecesLeft, 1);
   EXPECT_EQ(piecesRight, 1);
-  coupler.removeThread(thread);
-  coupler.remove(needle);
-  bullet::destroySutureThread(bw.multiWorld, thread);
 }
 
 // (d) A needle (ArcDesc: a half circle of 12 mm) on a free dynamic Bullet body (20 g),
