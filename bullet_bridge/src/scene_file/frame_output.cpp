@@ -63,7 +63,7 @@ std::vector<ToolDrawing> toolDrawings(const LoadedScene::Impl& s, float wire) {
                               btTransform(btQuaternion(n.arc.pose.rotation.x, n.arc.pose.rotation.y,
                                                        n.arc.pose.rotation.z, n.arc.pose.rotation.w),
                                           btVector3(n.arc.pose.position.x, n.arc.pose.position.y, n.arc.pose.position.z));
-    ToolDrawing d{{}, true, {90, 95, 120}, 2.f * wire};
+    ToolDrawing d{{}, true, {90, 95, 120}, 1.25f * wire};  // steel a little thicker than the thread
     for (int i = 0; i <= 32; ++i) {
       const float a = n.arc.startAngle + (n.arc.endAngle - n.arc.startAngle) * i / 32;
       d.points.push_back(vec(frame * btVector3(n.arc.radius * std::cos(a), n.arc.radius * std::sin(a), 0)));
@@ -94,6 +94,10 @@ float splatRadius(const LoadedScene::Impl& s) {
   return s.output.particleRadius > 0.f ? s.output.particleRadius : 0.3f * s.scene->settings().dx;
 }
 
+float wireRadius(const LoadedScene::Impl& s) {
+  return s.output.wireRadius > 0.f ? s.output.wireRadius : 0.2f * splatRadius(s);
+}
+
 }  // namespace
 
 bool LoadedScene::pngDue() const {
@@ -117,7 +121,7 @@ void LoadedScene::writePng(const std::string& path) const {
       if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
     renderer.addParticles(shown, radius, obj.color);
   }
-  const float wire = 0.2f * radius;
+  const float wire = wireRadius(s);
   for (const ToolDrawing& d : toolDrawings(s, wire)) {
     if (!d.polyline) {
       renderer.addParticles(d.points, d.radius, d.colour);
@@ -143,7 +147,7 @@ void LoadedScene::writePly(const std::string& tissuePath, const std::string& too
   io::writePly(tissuePath, tissue);
   if (toolsPath.empty()) return;
   io::PlyFrame tools;
-  for (const ToolDrawing& d : toolDrawings(s, 0.2f * splatRadius(s)))
+  for (const ToolDrawing& d : toolDrawings(s, wireRadius(s)))
     d.polyline ? tools.addPolyline(d.points, d.colour) : tools.addPoints(d.points, d.colour);
   if (!tools.points.empty()) io::writePly(toolsPath, tools);  // an empty PLY is no help to a viewer
 }

@@ -77,6 +77,8 @@ void readOutput(Node* n, LoadedScene::Impl& s) {
   }
   if (n->read("particleRadius", o.particleRadius) && !(o.particleRadius >= 0.f))
     fail(n->at("particleRadius"), o.particleRadius, "must be >= 0 (0: 0.3 dx)");
+  if (n->read("wireRadius", o.wireRadius) && !(o.wireRadius >= 0.f))
+    fail(n->at("wireRadius"), o.wireRadius, "must be >= 0 (0: 0.2 particleRadius)");
   if (n->has("cutaway")) {
     Node c = n->object("cutaway");
     std::pair<Vec3f, float> cut{{0.f, 0.f, 1.f}, 0.f};

@@ -70,6 +70,7 @@ struct Output {
   io::Camera camera;
   std::optional<std::pair<float, float>> ground;  ///< height, half size [m]
   float particleRadius = 0.f;                     ///< [m]; 0: 0.3 dx
+  float wireRadius = 0.f;                         ///< [m] threads' splats (needles' 1.25 times); 0: 0.2 particleRadius
   std::optional<std::pair<Vec3f, float>> cutaway; ///< normal, offset: particles with n.x > offset are not drawn
   struct Column {
     enum Kind { Position, Velocity, Force, CenterOfMass } kind = Position;
