@@ -19,7 +19,7 @@ namespace demo {
 /// Options every scene-file demo takes; each becomes a merge patch over the file.
 struct SceneOptions {
   std::string out;
-  int threads = -1;
+  int threads = -1, pngEvery = -1;
   bool noPly = false;
   std::vector<std::string> patches;  ///< --set, in order
 
@@ -27,13 +27,18 @@ struct SceneOptions {
     app.add_option("--out", out, "output folder: frames.csv, frame_NNNN.png, frame_NNNN.ply (tissue), frame_NNNN_tools.ply");
     app.add_option("--threads", threads, "CPU threads (0 = all; default: the file's settings.cpuThreads)")
         ->check(CLI::NonNegativeNumber);
+    app.add_option("--png-every", pngEvery, "a picture (and PLY files) every N frames (0: none; default: the file's)")
+        ->check(CLI::NonNegativeNumber);
     app.add_flag("--no-ply", noPly, "no PLY files beside the pictures (the file's output.ply: false)");
-    app.add_option("--set", patches, "a JSON merge patch over the scene file, e.g. '{\"settings\": {\"dx\": 0.005}}'");
+    app.add_option("--set", patches,
+                   "a JSON merge patch over the scene file, e.g. '{\"settings\": {\"dx\": 0.005}}' (elements of "
+                   "objects, bodies and threads by their name: '{\"objects\": [{\"name\": \"block\", ...}]}')");
   }
   /// The patches to load the file with: --set's, then the options'.
   std::vector<std::string> overrides() const {
     std::vector<std::string> all = patches;
     if (threads >= 0) all.push_back("{\"settings\": {\"cpuThreads\": " + std::to_string(threads) + "}}");
+    if (pngEvery >= 0) all.push_back("{\"output\": {\"pngEvery\": " + std::to_string(pngEvery) + "}}");
     if (noPly) all.push_back(R"({"output": {"ply": false}})");
     return all;
   }

@@ -63,18 +63,23 @@ int main(int argc, char** argv) {
   std::string scenePath = MPM_ASSETS_DIR "/scenes/cutting.json", solverName;
   demo::SceneOptions options;
   options.out = "out/cutting";
-  float dx = 0.f;
+  float dx = 0.f, toughness = -1.f;
   app.add_option("--scene", scenePath, "the scene file");
   options.add(app);
   app.add_option("--solver", solverName, "MlsMpm, StandardMpm or PbMpm (default: the file's)")
       ->check(CLI::IsMember({"MlsMpm", "StandardMpm", "PbMpm"}));
   app.add_option("--dx", dx, "grid cell size [m] (default: the file's)")->check(CLI::PositiveNumber);
+  app.add_option("--toughness", toughness, "the block's fracture toughness G_c [J/m^2] (default: the file's)")
+      ->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
 
   try {
     std::vector<std::string> overrides = options.overrides();
     if (!solverName.empty()) overrides.push_back("{\"settings\": {\"solver\": \"" + solverName + "\"}}");
     if (dx > 0.f) overrides.push_back("{\"settings\": {\"dx\": " + std::to_string(dx) + "}}");
+    if (toughness >= 0.f)
+      overrides.push_back(R"({"objects": [{"name": "block", "material": {"fractureToughness": )" + std::to_string(toughness) +
+                          "}}]}");
     auto loaded = mpm::bullet::LoadedScene::fromFile(scenePath, overrides);
     mpm::Scene& scene = loaded->scene();
     const mpm::ParticleObjectId tissue = loaded->object("block");

@@ -14,8 +14,9 @@
 // the thread after it; pulled up over the wound the thread, held by the tissue
 // (ThreadCoupling::addedMass) and its eye pinned within 12 um (one frame 0.35 mm), draws the
 // gap from 7.25 mm to under 2 mm, where the pull stops and holds (README, Suturing).
-// --solver pb advances PB-MPM once every 6 Bullet ticks (world.tissueInterval); --set
-// patches anything else in the file, e.g. '{"threads": [...]}' for a one-way thread.
+// --solver pb advances PB-MPM once every 6 Bullet ticks (world.tissueInterval); --one-way
+// and --no-added-mass show the couplings without the hold; --set patches anything else in
+// the file.
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 #include <CLI/CLI.hpp>
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
   demo::SceneOptions options;
   options.out = "out/suturing";
   float dx = 0.f, holdTension = 1.f, closeGap = 0.002f;
+  bool oneWay = false, noAddedMass = false;
   int frames = -1;
   app.add_option("--scene", scenePath, "the scene file");
   options.add(app);
@@ -60,6 +62,9 @@ int main(int argc, char** argv) {
   app.add_option("--solver", solverName, "mls (MLS-MPM) or pb (position-based MPM, advanced every 6 ticks)")
       ->check(CLI::IsMember({"mls", "pb"}));
   app.add_option("--dx", dx, "grid cell size [m] (default: the file's)")->check(CLI::PositiveNumber);
+  app.add_flag("--one-way", oneWay, "the thread drags the tissue, the tissue does not hold it (no impulses to its links)");
+  app.add_flag("--no-added-mass", noAddedMass,
+               "two-way without ThreadCoupling::addedMass: each link gets its segment's own momentum change only");
   app.add_option("--hold-tension", holdTension, "the pull stops once the thread carries this at the eye [N]")
       ->check(CLI::PositiveNumber);
   app.add_option("--close-gap", closeGap, "the pull stops once the gap is down to this [m]")->check(CLI::NonNegativeNumber);
@@ -72,6 +77,9 @@ int main(int argc, char** argv) {
     // (tests/test_suturing_bullet.cpp, PullingTheStitch)
     if (solverName == "pb") overrides.push_back(R"({"settings": {"solver": "PbMpm"}, "world": {"tissueInterval": 6}})");
     if (dx > 0.f) overrides.push_back("{\"settings\": {\"dx\": " + std::to_string(dx) + "}}");
+    if (oneWay || noAddedMass)
+      overrides.push_back(std::string(R"({"threads": [{"name": "thread", "coupling": {"dynamic": )") +
+                          (oneWay ? "false" : "true") + R"(, "addedMass": false}}]})");
     auto loaded = mpm::bullet::LoadedScene::fromFile(scenePath, overrides);
     mpm::Scene& scene = loaded->scene();
     const mpm::ParticleObjectId left = loaded->object("left"), right = loaded->object("right");
