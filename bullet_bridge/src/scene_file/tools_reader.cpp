@@ -84,6 +84,8 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
       fail(pn.at("measuredFrom"), from, "must be one of first, last");
     pn.finish();
     if (from == "last") std::reverse(corners.begin(), corners.end());
+    // the thread's own checks come later: a count it refuses must not size the path first
+    if (d.segments < 2 || d.segments > 100000) fail(n.at("segments"), d.segments, "must lie in [2, 100000] to lay a path");
     try {
       laid = threadPointsAlong(corners, d.length / (float)std::max(d.segments, 1), d.segments);
     } catch (const InvalidArgument& e) {
