@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Sets up, builds (Release) and runs the main demo: a needle and thread close a wound
-# between two soft tissue blocks (Bullet + MPM). Frames (PNG), suturing.csv and
+# between two soft tissue blocks (Bullet + MPM), the scene assets/scenes/suturing.json.
+# Frames (PNG, PLY; --no-ply: none), frames.csv, suturing.csv and
 # summary.txt go to out/suturing/.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"

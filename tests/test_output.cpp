@@ -15,6 +15,7 @@
 #include "mpm/error.h"
 #include "mpm/output.h"
 #include "mpm_bullet/scene_file.h"
+#include "ply_read.h"
 #include "test_paths.h"
 
 namespace mpm::io {
@@ -109,6 +110,40 @@ TEST(PlyWriter, VelocitiesOfOtherSizeAreLeftOut) {
   for (const std::string& line : header) EXPECT_EQ(line.find("vx"), std::string::npos);
   EXPECT_EQ(payload.size(), positions.size() * 3 * sizeof(float));
   std::remove(path.c_str());
+}
+
+TEST(PlyWriter, ColouredPointsAndPolylinesReadBack) {
+  PlyFrame frame;
+  frame.addPoints({{0.1f, -2.5f, 1e-30f}, {3.f, 4.f, 5.f}}, {215, 110, 105});
+  frame.addPolyline({{0.f, 0.f, 0.f}, {1.f, 0.f, 0.f}, {1.f, 1.f, -7.25f}}, {40, 90, 200});
+  const std::string path = tempPath("frame.ply");
+  writePly(path, frame);
+  const test::PlyRead r = test::readPly(path);
+  EXPECT_EQ(r.header.front(), "ply");
+  EXPECT_EQ(r.header[1], "format binary_little_endian 1.0");
+  EXPECT_EQ(r.vertexCount, 5u);
+  EXPECT_EQ(r.edgeCount, 2u);
+  EXPECT_EQ(r.trailingBytes, 0u);
+  ASSERT_EQ(r.frame.points.size(), 5u);
+  for (size_t i = 0; i < 5; ++i)
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(r.frame.points[i][c], frame.points[i][c]) << "vertex " << i;
+  EXPECT_EQ(r.frame.colours[1].r, 215);
+  EXPECT_EQ(r.frame.colours[4].b, 200);
+  // the polyline's points follow the two lone ones: edges 2-3 and 3-4
+  ASSERT_EQ(r.frame.edges.size(), 2u);
+  EXPECT_EQ(r.frame.edges[0], (std::array<int, 2>{2, 3}));
+  EXPECT_EQ(r.frame.edges[1], (std::array<int, 2>{3, 4}));
+  std::remove(path.c_str());
+}
+
+TEST(PlyWriter, AnEdgeBeyondThePointsIsRefused) {
+  PlyFrame frame;
+  frame.addPoints({{0.f, 0.f, 0.f}}, {});
+  frame.edges.push_back({0, 1});
+  EXPECT_THROW(writePly(tempPath("bad_edge.ply"), frame), Error);
+  frame.edges.clear();
+  frame.colours.clear();
+  EXPECT_THROW(writePly(tempPath("no_colour.ply"), frame), Error);
 }
 
 TEST(PlyWriter, MissingDirectoryThrowsNamingPath) {

@@ -7,6 +7,7 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +19,7 @@
 #include "mpm_bullet/coupler.h"
 #include "mpm_bullet/scene_file.h"
 #include "mpm_bullet/suture.h"
+#include "ply_read.h"
 #include "test_paths.h"
 
 namespace {
@@ -69,12 +71,14 @@ TEST_P(SceneFiles, LoadsAndRunsTwoFrames) {
 // the patches keep each scene's layout and only coarsen it (dx, frame length, picture size)
 INSTANTIATE_TEST_SUITE_P(
     AssetsScenes, SceneFiles,
-    ::testing::Values(SceneCase{"coupling.json", R"({"settings": {"dx": 0.02, "cpuThreads": 1},
+    ::testing::Values(SceneCase{"block_drop.json", R"({"settings": {"dx": 0.0625, "cpuThreads": 1},
+                                                      "output": {"camera": {"width": 160, "height": 100}}})"},
+                      SceneCase{"coupling.json", R"({"settings": {"dx": 0.02, "cpuThreads": 1},
                                                     "output": {"camera": {"width": 160, "height": 100}}})"},
                       SceneCase{"cutting.json", R"({"settings": {"dx": 0.01, "cpuThreads": 1},
                                                    "output": {"camera": {"width": 160, "height": 100}}})"},
                       SceneCase{"suturing.json", R"({"settings": {"dx": 0.005, "cpuThreads": 1},
-                                                    "output": {"frameTime": 0.0104166667,
+                                                    "output": {"frameTime": 0.0010416667,
                                                                "camera": {"width": 160, "height": 100}}})"}),
     [](const auto& info) { return std::string(info.param.file).substr(0, std::string(info.param.file).find('.')); });
 
@@ -85,7 +89,7 @@ TEST(SceneFile, EveryFileInAssetsScenesIsTested) {
     if (e.path().extension() == ".json" && e.path().filename() != "scene.schema.json")
       files.push_back(e.path().filename().string());
   std::sort(files.begin(), files.end());
-  EXPECT_EQ(files, (std::vector<std::string>{"coupling.json", "cutting.json", "suturing.json"}));
+  EXPECT_EQ(files, (std::vector<std::string>{"block_drop.json", "coupling.json", "cutting.json", "suturing.json"}));
 }
 
 // --- malformed files: each names its key path ------------------------------------------
@@ -371,6 +375,75 @@ TEST(SceneFileThreads, AFixedBaseThreadIsAnchoredAndPinsAreWhereThePointsAre) {
   }
 }
 
+// The suturing scene's thread is laid along its path measured from the last corner: its last
+// point is the eye's corner, where the pin to the needle holds it, and its links are a
+// segment long (the path's corners are 1 um off the arc's rounding, the pin's pivot is exact).
+TEST(SceneFileThreads, APathMeasuredFromTheLastCornerEndsThere) {
+  auto loaded = LoadedScene::fromFile(mpm::test::assetPath("scenes/suturing.json"),
+                                      R"({"settings": {"dx": 0.005, "cpuThreads": 1}})");
+  const std::vector<btVector3> p = mpm::bullet::threadPoints(loaded->thread("thread"));
+  ASSERT_EQ(p.size(), 31u);
+  const btVector3 eye = loaded->body("needle")->getCenterOfMassTransform() *
+                        loaded->threadPin("thread", 30)->getPivotInB();
+  EXPECT_LT((p.back() - eye).length(), 1e-6f);
+  for (size_t k = 0; k + 1 < p.size(); ++k) EXPECT_NEAR((p[k + 1] - p[k]).length(), 0.0025f, 2.5e-6f) << k;
+  EXPECT_TRUE(loaded->thread("thread")->hasFixedBase());
+  EXPECT_THROW(loaded->threadPin("thread", 0), mpm::InvalidArgument) << "point 0 is the fixed base, not pinned";
+}
+
+// An override names the one element it changes: the right block's patch keeps its
+// material and the left block; an array whose elements name nothing in the file replaces it.
+TEST(SceneFile, AnOverrideOfANamedElementPatchesThatElementOnly) {
+  const std::string file = mpm::test::assetPath("scenes/suturing.json");
+  const char* coarse = R"({"settings": {"dx": 0.005, "cpuThreads": 1}})";
+  auto whole = LoadedScene::fromFile(file, coarse);
+  auto patched = LoadedScene::fromFile(
+      file, std::vector<std::string>{coarse, R"({"objects": [{"name": "right", "halfExtents": [0.015, 0.01, 0.0075]}]})"});
+  std::vector<mpm::Vec3f> a, b;
+  whole->scene().readPositions(whole->object("right"), a);
+  patched->scene().readPositions(patched->object("right"), b);
+  EXPECT_EQ(b.size() * 2, a.size()) << "half as deep";
+  EXPECT_EQ(patched->material("right").fractureToughness, 200.f) << "the rest of the block is the file's";
+  EXPECT_EQ(patched->scene().particleCount(), whole->scene().particleCount() - b.size());
+  auto replaced = LoadedScene::fromFile(
+      file, std::vector<std::string>{coarse, R"({"objects": [{"name": "only", "primitive": "Box", "center": [0, 0.02, 0], "halfExtents": [0.01, 0.01, 0.01]}]})"});
+  EXPECT_THROW(replaced->object("left"), mpm::InvalidArgument);
+}
+
+// --- PLY frames ------------------------------------------------------------------------
+
+// The tissue file holds every particle (the cutaway is the picture's only) in its object's
+// colour; the tools file the needle's arc (33 points, 32 edges) and the thread (31, 30).
+TEST(SceneFilePly, FrameReadsBackAsTheSceneIs) {
+  auto loaded = LoadedScene::fromFile(mpm::test::assetPath("scenes/suturing.json"),
+                                      R"({"settings": {"dx": 0.005, "cpuThreads": 1}})");
+  EXPECT_TRUE(loaded->plyDue());
+  const std::string tissue = testing::TempDir() + "/scene_file_frame.ply", tools = testing::TempDir() + "/scene_file_tools.ply";
+  loaded->writePly(tissue, tools);
+  const mpm::test::PlyRead t = mpm::test::readPly(tissue);
+  EXPECT_EQ(t.vertexCount, loaded->scene().particleCount());
+  EXPECT_EQ(t.edgeCount, 0u);
+  EXPECT_EQ(t.trailingBytes, 0u);
+  ASSERT_EQ(t.frame.points.size(), loaded->scene().particleCount());
+  std::vector<mpm::Vec3f> left, right;
+  loaded->scene().readPositions(loaded->object("left"), left);
+  loaded->scene().readPositions(loaded->object("right"), right);
+  left.insert(left.end(), right.begin(), right.end());
+  for (size_t i = 0; i < left.size(); ++i)
+    for (int c = 0; c < 3; ++c) ASSERT_EQ(t.frame.points[i][c], left[i][c]) << "particle " << i;
+  EXPECT_EQ(t.frame.colours.front().g, 110);  // the left block's [215, 110, 105]
+  EXPECT_EQ(t.frame.colours.back().g, 150);   // the right one's [235, 150, 130]
+  const mpm::test::PlyRead w = mpm::test::readPly(tools);
+  EXPECT_EQ(w.vertexCount, 33u + 31u);
+  EXPECT_EQ(w.edgeCount, 32u + 30u);
+  EXPECT_EQ(w.trailingBytes, 0u);
+  const std::vector<btVector3> thread = mpm::bullet::threadPoints(loaded->thread("thread"));
+  EXPECT_EQ(w.frame.points.back().x, (float)thread.back().x());
+  EXPECT_FALSE(LoadedScene::fromFile(mpm::test::assetPath("scenes/suturing.json"),
+                                     R"({"settings": {"dx": 0.005, "cpuThreads": 1}, "output": {"ply": false}})")
+                   ->plyDue());
+}
+
 // --- scripted motion and checkpoints ---------------------------------------------------
 
 TEST(SceneFileMotion, KinematicKeyframesMoveTheBodyAlongThePath) {
@@ -406,6 +479,49 @@ TEST(SceneFileMotion, ScriptsRunOnBulletsClockAcrossTissueIntervals) {
   EXPECT_GT(every.x(), 0.01f) << "the driver moved the body";
   EXPECT_EQ(fourth.x(), every.x());
   EXPECT_EQ(fourth.y(), every.y());
+}
+
+// A keyframe's own ease governs the stretch into it (a smoothstep turn, then a steady pull),
+// and a held driven body stops where its script was when held, at rest.
+TEST(SceneFileMotion, AKeyframesEaseAndAHoldStopTheStretch) {
+  auto loaded = LoadedScene::fromString(std::string("{") + kDomain + R"(,
+    "world": {"tick": 0.01, "gravity": [0, 0, 0]},
+    "bodies": [{"name": "tool", "shape": {"type": "sphere", "radius": 0.01}, "mass": 0.1, "coupled": false,
+                "motion": {"mode": "driver", "limits": {"maxForce": 100, "maxTorque": 100, "timeConstant": 0.005},
+                           "keyframes": [{"time": 0, "position": [0, 0.2, 0]},
+                                         {"time": 0.1, "position": [0, 0.2, 0]},
+                                         {"time": 0.5, "position": [0.1, 0.2, 0], "ease": "linear"}]}}],
+    "output": {"frameTime": 0.2}})");
+  std::vector<double> speeds;
+  loaded->setTickCallback([&](float) { speeds.push_back(loaded->body("tool")->getLinearVelocity().x()); });
+  loaded->advanceFrame();  // to 0.2 s: the steady stretch at 0.25 m/s from 0.1 s on
+  EXPECT_NEAR(speeds.back(), 0.25, 0.25 * 0.02) << "linear: the pull's speed, not a smoothstep's 0.28 m/s";
+  loaded->holdBody("tool");
+  const float x = (float)loaded->body("tool")->getCenterOfMassPosition().x();
+  loaded->advanceFrame();
+  EXPECT_TRUE(loaded->held("tool"));
+  EXPECT_LT(std::fabs(loaded->body("tool")->getCenterOfMassPosition().x() - x), 0.003f) << "held, not pulled on to 0.1 m";
+  EXPECT_LT(std::fabs(speeds.back()), 1e-3);
+  EXPECT_THROW(loaded->holdBody("nothing"), mpm::InvalidArgument);
+}
+
+// A slow turn's feedforward is the stretch's own angular speed: a driven body (time
+// constant 0.1 s) turning at 0.05 rad/s sits on its script after 1 s, not w tau = 5e-3 rad
+// behind it. Measured before: 4.5e-3 rad behind (the central difference of two float rotations
+// 1e-4 rad apart gave w = 0, leaving the driver's lag; the suturing needle turned 5 % behind).
+TEST(SceneFileMotion, ASlowTurnIsDrivenOnItsScript) {
+  auto loaded = LoadedScene::fromString(std::string("{") + kDomain + R"(,
+    "world": {"tick": 0.01, "gravity": [0, 0, 0]},
+    "bodies": [{"name": "tool", "shape": {"type": "sphere", "radius": 0.01}, "mass": 0.1, "coupled": false,
+                "motion": {"mode": "driver", "ease": "linear",
+                           "limits": {"maxForce": 100, "maxTorque": 100, "timeConstant": 0.1},
+                           "keyframes": [{"time": 0, "position": [0, 0.2, 0], "rotation": {"axis": [0, 0, 1], "angle": 0}},
+                                         {"time": 10, "position": [0, 0.2, 0], "rotation": {"axis": [0, 0, 1], "angle": 0.5}}]}}],
+    "output": {"frameTime": 0.1}})");
+  for (int f = 0; f < 10; ++f) loaded->advanceFrame();
+  const btQuaternion q = loaded->body("tool")->getOrientation();
+  EXPECT_NEAR(2 * std::atan2(q.z(), q.w()), 0.05, 5e-4);
+  EXPECT_NEAR(loaded->body("tool")->getAngularVelocity().z(), 0.05, 5e-4);
 }
 
 TEST(SceneFileCheckpoint, CouplerCheckpointResumesTheRun) {

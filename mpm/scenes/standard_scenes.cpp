@@ -37,29 +37,6 @@ ParticleObjectDesc CressimBench::box(float halfSize) {
   return d;
 }
 
-SceneSettings BlockDrop::settings() {
-  SceneSettings s;
-  s.domain.lower = {-1.f, 0.f, -1.f};
-  s.domain.upper = {1.f, 2.f, 1.f};
-  s.domain.wallMode = WallMode::Separate;
-  s.dx = 1.f / 32.f;
-  s.gravity = {0.f, -9.81f, 0.f};
-  return s;
-}
-
-ParticleObjectDesc BlockDrop::block() {
-  ParticleObjectDesc d;
-  d.center = {0.f, 1.2f, 0.f};
-  d.halfExtents = {0.25f, 0.15f, 0.2f};
-  d.velocity = {0.3f, 0.f, 0.f};
-  d.angularVelocity = {0.f, 0.f, 1.5f};
-  d.material.model = MaterialModel::NeoHookeanDecoupled;
-  d.material.youngsModulus = 4e4f;
-  d.material.poissonRatio = 0.35f;
-  d.material.density = 1000.f;
-  return d;
-}
-
 float HertzIndentation::cellSize(const Setup& setup) { return kRadius / (float)setup.cellsPerRadius; }
 
 SceneSettings HertzIndentation::settings(const Setup& setup) {

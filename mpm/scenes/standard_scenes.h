@@ -1,6 +1,6 @@
 #pragma once
-/// Scenes shared by tests, demos and benchmarks, so that "the CRESSim bench scene" or "the
-/// block drop" is defined once (STYLE: scenes shared by tests, demos and benchmarks).
+/// Scenes shared by tests and benchmarks, so that "the CRESSim bench scene" is defined
+/// once; the demos' scenes are files (assets/scenes/, mpm_bullet/scene_file.h).
 #include <array>
 #include <functional>
 #include <string>
@@ -19,13 +19,6 @@ struct CressimBench {
   static constexpr int kSubstepsPerFrame = 10;
   static SceneSettings settings(Backend backend = Backend::Cpu, int threads = 0);
   static ParticleObjectDesc box(float halfSize);
-};
-
-/// The main demo: an elastic block dropped onto the ground of a 2 m box (sticky-free
-/// "separate" walls), soft enough to squash visibly and bounce.
-struct BlockDrop {
-  static SceneSettings settings();
-  static ParticleObjectDesc block();
 };
 
 /// Hertz contact (bench/hertz.cpp, tests/test_hertz.cpp): a rigid sphere of radius R pressed

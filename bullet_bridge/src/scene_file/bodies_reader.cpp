@@ -82,6 +82,11 @@ Keyframes readKeyframes(Node& n) {
       rn.finish();
       if (!(dot(kf.axis, kf.axis) > 0.f)) fail(rn.at("axis"), (*r)["axis"], "must not be zero");
     }
+    std::string stretch;
+    if (f.read("ease", stretch)) {
+      if (stretch != "smoothstep" && stretch != "linear") fail(f.at("ease"), stretch, "must be one of smoothstep, linear");
+      kf.smoothstep = stretch == "smoothstep";
+    }
     f.finish();
     k.frames.push_back(kf);
   }

@@ -1,5 +1,5 @@
 // A frame's picture (the tissue, coloured bodies, needles and threads through the splat
-// renderer) and its CSV row.
+// renderer), its PLY files (the tissue's particles; the tools as points and polylines) and its CSV row.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -91,6 +91,67 @@ std::vector<btVector3> bodyPoints(const Body& b, float& spacing) {
   return points;
 }
 
+/// What is drawn besides the tissue: needles' arcs and threads as polylines, slicers' blades
+/// and coloured bodies (filled, or over their mesh's triangles) as points; `radius` is the splat's in the picture.
+struct ToolDrawing {
+  std::vector<Vec3f> points;
+  bool polyline = false;
+  io::Rgb colour;
+  float radius = 0.f;
+};
+
+std::vector<ToolDrawing> toolDrawings(const LoadedScene::Impl& s, float wire) {
+  std::vector<ToolDrawing> out;
+  for (const auto& b : s.bodies) {  // a body given a colour: points filling it, or over its mesh
+    if (!b->color) continue;
+    float spacing = 0.f;
+    const std::vector<btVector3> local = bodyPoints(*b, spacing);
+    const btTransform t = b->body->getCenterOfMassTransform();
+    ToolDrawing d{{}, false, *b->color, 0.6f * spacing};
+    d.points.reserve(local.size());
+    for (const btVector3& p : local) d.points.push_back(vec(t * p));
+    if (!d.points.empty()) out.push_back(std::move(d));
+  }
+  for (const Needle& n : s.needles) {
+    const btTransform frame = n.body->body->getCenterOfMassTransform() *
+                              btTransform(btQuaternion(n.arc.pose.rotation.x, n.arc.pose.rotation.y,
+                                                       n.arc.pose.rotation.z, n.arc.pose.rotation.w),
+                                          btVector3(n.arc.pose.position.x, n.arc.pose.position.y, n.arc.pose.position.z));
+    ToolDrawing d{{}, true, {90, 95, 120}, 1.25f * wire};  // steel a little thicker than the thread
+    for (int i = 0; i <= 32; ++i) {
+      const float a = n.arc.startAngle + (n.arc.endAngle - n.arc.startAngle) * i / 32;
+      d.points.push_back(vec(frame * btVector3(n.arc.radius * std::cos(a), n.arc.radius * std::sin(a), 0)));
+    }
+    out.push_back(std::move(d));
+  }
+  for (const Slicer& sl : s.slicers) {  // the blade's face, as the tissue saw it
+    const ShapeState blade = s.scene->slicerState(sl.id);
+    const QuadSlicerDesc& q = sl.blade;
+    const btTransform frame(btQuaternion(blade.pose.rotation.x, blade.pose.rotation.y, blade.pose.rotation.z,
+                                         blade.pose.rotation.w),
+                            btVector3(blade.pose.position.x, blade.pose.position.y, blade.pose.position.z));
+    ToolDrawing d{{}, false, {170, 175, 190}, std::min(q.halfLength / 15.f, q.width / 40.f)};
+    for (int i = 0; i <= 30; ++i)  // as the cutting demo draws it: 31 x 41 points
+      for (int j = 0; j <= 40; ++j)
+        d.points.push_back(vec(frame * btVector3(q.halfLength * (i / 15.f - 1.f), q.width * j / 40.f, 0)));
+    out.push_back(std::move(d));
+  }
+  for (const Thread& t : s.threads) {
+    ToolDrawing d{{}, true, {40, 90, 200}, wire};
+    for (const btVector3& p : threadPoints(t.multibody)) d.points.push_back(vec(p));
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+float splatRadius(const LoadedScene::Impl& s) {
+  return s.output.particleRadius > 0.f ? s.output.particleRadius : 0.3f * s.scene->settings().dx;
+}
+
+float wireRadius(const LoadedScene::Impl& s) {
+  return s.output.wireRadius > 0.f ? s.output.wireRadius : 0.2f * splatRadius(s);
+}
+
 }  // namespace
 
 bool LoadedScene::pngDue() const {
@@ -98,13 +159,14 @@ bool LoadedScene::pngDue() const {
   return every > 0 && (frame() % every == 0 || frame() == frameCount());
 }
 
+bool LoadedScene::plyDue() const { return impl_->output.ply && pngDue(); }
+
 void LoadedScene::writePng(const std::string& path) const {
   const Impl& s = *impl_;
   const Output& o = s.output;
   io::SplatRenderer renderer(o.camera);
   if (o.ground) renderer.setGround(o.ground->first, o.ground->second);
-  const float dx = s.scene->settings().dx;
-  const float radius = o.particleRadius > 0.f ? o.particleRadius : 0.3f * dx;
+  const float radius = splatRadius(s);
   std::vector<Vec3f> x, shown;
   for (const Object& obj : s.objects) {
     s.scene->readPositions(obj.id, x);
@@ -113,49 +175,35 @@ void LoadedScene::writePng(const std::string& path) const {
       if (!o.cutaway || dot(o.cutaway->first, p) <= o.cutaway->second) shown.push_back(p);
     renderer.addParticles(shown, radius, obj.color);
   }
-  for (const auto& b : s.bodies) {  // a body given a colour: points filling it, or over its mesh
-    if (!b->color) continue;
-    float spacing = 0.f;
-    const std::vector<btVector3> local = bodyPoints(*b, spacing);
-    const btTransform t = b->body->getCenterOfMassTransform();
-    std::vector<Vec3f> points;
-    points.reserve(local.size());
-    for (const btVector3& p : local) points.push_back(vec(t * p));
-    if (!points.empty()) renderer.addParticles(points, 0.6f * spacing, *b->color);
-  }
-  const float wire = 0.2f * radius;
-  for (const Needle& n : s.needles) {
-    std::vector<btVector3> arc;
-    const btTransform frame = n.body->body->getCenterOfMassTransform() *
-                              btTransform(btQuaternion(n.arc.pose.rotation.x, n.arc.pose.rotation.y,
-                                                       n.arc.pose.rotation.z, n.arc.pose.rotation.w),
-                                          btVector3(n.arc.pose.position.x, n.arc.pose.position.y, n.arc.pose.position.z));
-    for (int i = 0; i <= 32; ++i) {
-      const float a = n.arc.startAngle + (n.arc.endAngle - n.arc.startAngle) * i / 32;
-      arc.push_back(frame * btVector3(n.arc.radius * std::cos(a), n.arc.radius * std::sin(a), 0));
+  const float wire = wireRadius(s);
+  for (const ToolDrawing& d : toolDrawings(s, wire)) {
+    if (!d.polyline) {
+      renderer.addParticles(d.points, d.radius, d.colour);
+      continue;
     }
-    std::vector<Vec3f> points;
-    addPolyline(arc, wire, points);
-    renderer.addParticles(points, 2.f * wire, {90, 95, 120});
-  }
-  for (const Slicer& sl : s.slicers) {  // the blade's face, as the tissue saw it
-    const ShapeState blade = s.scene->slicerState(sl.id);
-    const QuadSlicerDesc& d = sl.blade;
-    const btTransform frame(btQuaternion(blade.pose.rotation.x, blade.pose.rotation.y, blade.pose.rotation.z,
-                                         blade.pose.rotation.w),
-                            btVector3(blade.pose.position.x, blade.pose.position.y, blade.pose.position.z));
-    std::vector<Vec3f> steel;  // as the cutting demo draws it: 31 x 41 points
-    for (int i = 0; i <= 30; ++i)
-      for (int j = 0; j <= 40; ++j)
-        steel.push_back(vec(frame * btVector3(d.halfLength * (i / 15.f - 1.f), d.width * j / 40.f, 0)));
-    renderer.addParticles(steel, std::min(d.halfLength / 15.f, d.width / 40.f), {170, 175, 190});
-  }
-  for (const Thread& t : s.threads) {
-    std::vector<Vec3f> points;
-    addPolyline(threadPoints(t.multibody), wire, points);
-    renderer.addParticles(points, wire, {40, 90, 200});
+    std::vector<btVector3> line;
+    for (const Vec3f& p : d.points) line.push_back(btVector3(p.x, p.y, p.z));
+    std::vector<Vec3f> splats;
+    addPolyline(line, wire, splats);
+    renderer.addParticles(splats, d.radius, d.colour);
   }
   renderer.writePng(path);
+}
+
+void LoadedScene::writePly(const std::string& tissuePath, const std::string& toolsPath) const {
+  const Impl& s = *impl_;
+  io::PlyFrame tissue;  // every particle, in its object's order and colour (no cutaway)
+  std::vector<Vec3f> x;
+  for (const Object& obj : s.objects) {
+    s.scene->readPositions(obj.id, x);
+    tissue.addPoints(x, obj.color);
+  }
+  io::writePly(tissuePath, tissue);
+  if (toolsPath.empty()) return;
+  io::PlyFrame tools;
+  for (const ToolDrawing& d : toolDrawings(s, wireRadius(s)))
+    d.polyline ? tools.addPolyline(d.points, d.colour) : tools.addPoints(d.points, d.colour);
+  if (!tools.points.empty()) io::writePly(toolsPath, tools);  // an empty PLY is no help to a viewer
 }
 
 std::string LoadedScene::csvHeader() const {

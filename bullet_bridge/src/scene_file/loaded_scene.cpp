@@ -62,6 +62,36 @@ Json parseJson(const std::string& text, const std::string& what) {
   }
 }
 
+/// RFC 7386 merge patch, but for a top-level array ("objects", "bodies", "threads") whose
+/// elements in the patch all name an element of the file's array: those elements are
+/// patched, each by its own merge patch, and the rest left as they are. So a test names the
+/// one block it changes instead of restating the whole array.
+void mergeOverride(Json& root, const Json& patch) {
+  if (!patch.is_object() || !root.is_object()) {
+    root.merge_patch(patch);
+    return;
+  }
+  Json rest = patch;
+  for (auto it = patch.begin(); it != patch.end(); ++it) {
+    const Json& items = it.value();
+    if (!items.is_array() || items.empty() || !root.contains(it.key()) || !root[it.key()].is_array()) continue;
+    Json& target = root[it.key()];
+    std::vector<Json*> named;
+    for (const Json& item : items) {
+      Json* found = nullptr;
+      if (item.is_object() && item.contains("name"))
+        for (Json& t : target)
+          if (t.is_object() && t.contains("name") && t["name"] == item["name"]) found = &t;
+      if (!found) break;
+      named.push_back(found);
+    }
+    if (named.size() != items.size()) continue;  // not all named: the array is replaced
+    for (size_t i = 0; i < items.size(); ++i) named[i]->merge_patch(items[i]);
+    rest.erase(it.key());
+  }
+  root.merge_patch(rest);
+}
+
 std::unique_ptr<LoadedScene::Impl> build(const Json& root, const std::string& baseDir) {
   auto s = std::make_unique<LoadedScene::Impl>();
   s->baseDir = baseDir;
@@ -167,21 +197,24 @@ void LoadedScene::Impl::hookTicks() {
   coupler->setPreTickCallback([this](float dt) {
     for (auto& b : bodies) {
       if (!b->driver) continue;
-      const double t = bulletTime + dt;  // where the body should be after this tick
-      btVector3 v, w;
-      b->script->velocity(t, v, w);
+      const double t = b->heldAt.value_or(bulletTime + dt);  // where the body should be after this tick
+      btVector3 v(0, 0, 0), w(0, 0, 0);
+      if (!b->heldAt) b->script->velocity(t, v, w);
       b->driver->setTarget(b->script->pose(t), v, w);
       b->driver->tick(dt);
     }
+    if (preTickCallback) preTickCallback(dt);
   });
   coupler->setUserTickCallback([this](float dt) {
     bulletTime += dt;
-    if (!coupler->tissueAdvanced()) return;  // an advance's impulses cover its whole interval
-    auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
-    for (auto& b : bodies)
-      if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
-    for (Slicer& sl : slicers) add(sl.body, scene->slicerImpulse(sl.id));
-    for (Needle& n : needles) add(n.body, scene->curveImpulse(n.curve));
+    if (coupler->tissueAdvanced()) {  // an advance's impulses cover its whole interval
+      auto add = [](Body* b, const ShapeImpulse& J) { b->frameImpulse += bt(J.linear); };
+      for (auto& b : bodies)
+        if (b->coupled) add(b.get(), scene->shapeImpulse(coupler->shapeOf(b->body.get())));
+      for (Slicer& sl : slicers) add(sl.body, scene->slicerImpulse(sl.id));
+      for (Needle& n : needles) add(n.body, scene->curveImpulse(n.curve));
+    }
+    if (tickCallback) tickCallback(dt);
   });
 }
 
@@ -189,19 +222,29 @@ LoadedScene::LoadedScene(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 LoadedScene::~LoadedScene() = default;
 
 std::unique_ptr<LoadedScene> LoadedScene::fromString(const std::string& json, const std::string& baseDir,
-                                                     const std::string& overrides) {
+                                                     const std::vector<std::string>& overrides) {
   Json root = parseJson(json, "(scene)");
-  if (!overrides.empty()) root.merge_patch(parseJson(overrides, "(overrides)"));
+  for (const std::string& patch : overrides)
+    if (!patch.empty()) mergeOverride(root, parseJson(patch, "(overrides)"));
   return std::unique_ptr<LoadedScene>(new LoadedScene(build(root, baseDir)));
 }
 
-std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::string& overrides) {
+std::unique_ptr<LoadedScene> LoadedScene::fromString(const std::string& json, const std::string& baseDir,
+                                                     const std::string& overrides) {
+  return fromString(json, baseDir, std::vector<std::string>{overrides});
+}
+
+std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::vector<std::string>& overrides) {
   std::ifstream in(path);
   if (!in) throw InvalidArgument("(scene file)", path, "cannot be opened");
   std::stringstream text;
   text << in.rdbuf();
   const size_t slash = path.rfind('/');
   return fromString(text.str(), slash == std::string::npos ? "." : path.substr(0, slash), overrides);
+}
+
+std::unique_ptr<LoadedScene> LoadedScene::fromFile(const std::string& path, const std::string& overrides) {
+  return fromFile(path, std::vector<std::string>{overrides});
 }
 
 Scene& LoadedScene::scene() { return *impl_->scene; }
@@ -217,10 +260,50 @@ ParticleObjectId LoadedScene::object(const std::string& name) const {
     if (o.name == name) return o.id;
   throw InvalidArgument("LoadedScene::object", name, "no object of this name");
 }
+const Material& LoadedScene::material(const std::string& object) const {
+  for (const Object& o : impl_->objects)
+    if (o.name == object) return o.material;
+  throw InvalidArgument("LoadedScene::material", object, "no object of this name");
+}
 btMultiBody* LoadedScene::thread(const std::string& name) const {
   for (const Thread& t : impl_->threads)
     if (t.name == name) return t.multibody;
   throw InvalidArgument("LoadedScene::thread", name, "no thread of this name");
+}
+
+btMultiBodyPoint2Point* LoadedScene::threadPin(const std::string& thread, int point) const {
+  for (const Thread& t : impl_->threads)
+    if (t.name == thread) {
+      for (const auto& [p, pin] : t.pins)
+        if (p == point) return pin;
+      throw InvalidArgument("LoadedScene::threadPin", std::to_string(point), "thread \"" + thread + "\" has no pin at this point");
+    }
+  throw InvalidArgument("LoadedScene::threadPin", thread, "no thread of this name");
+}
+
+void LoadedScene::holdBody(const std::string& name) {
+  Body* b = impl_->findBody(name);
+  if (!b || !b->driver) throw InvalidArgument("LoadedScene::holdBody", name, "no driven body of this name");
+  if (!b->heldAt) b->heldAt = impl_->bulletTime;
+}
+
+bool LoadedScene::held(const std::string& name) const {
+  const Body* b = impl_->findBody(name);
+  return b && b->heldAt.has_value();
+}
+
+btVector3 LoadedScene::bodyForce(const std::string& name) const {
+  const Body* b = impl_->findBody(name);
+  if (!b) throw InvalidArgument("LoadedScene::bodyForce", name, "no body of this name");
+  const int ticks = std::max(1, (int)std::lround(impl_->output.frameTime / impl_->tick));
+  return b->frameImpulse / (ticks * impl_->tick);
+}
+
+double LoadedScene::bulletTime() const { return impl_->bulletTime; }
+float LoadedScene::tick() const { return impl_->tick; }
+void LoadedScene::setTickCallback(std::function<void(float dt)> callback) { impl_->tickCallback = std::move(callback); }
+void LoadedScene::setPreTickCallback(std::function<void(float dt)> callback) {
+  impl_->preTickCallback = std::move(callback);
 }
 
 int LoadedScene::frameCount() const { return impl_->output.frames; }

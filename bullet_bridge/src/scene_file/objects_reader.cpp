@@ -125,6 +125,7 @@ void readObjects(const Json& objects, LoadedScene::Impl& s) {
       if (other.name == o.name) fail(child(path, "name"), o.name, "another object has this name");
     if (e.color) o.color = *e.color;
     o.id = addObjectAt(*s.scene, e.desc, path);
+    o.material = e.desc.material;
     s.objects.push_back(o);
   }
 }

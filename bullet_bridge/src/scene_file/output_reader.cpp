@@ -45,6 +45,7 @@ void readOutput(Node* n, LoadedScene::Impl& s) {
   if (!(o.frameTime / s.tick <= 1e6f))
     fail(n->at("frameTime"), o.frameTime, "more than 1e6 Bullet ticks (world.tick) per frame");
   if (n->read("pngEvery", o.pngEvery) && o.pngEvery < 0) fail(n->at("pngEvery"), o.pngEvery, "must be >= 0 (0: none)");
+  n->read("ply", o.ply);
   if (n->has("camera")) {
     Node c = n->object("camera");
     c.read("eye", o.camera.eye);
@@ -76,6 +77,8 @@ void readOutput(Node* n, LoadedScene::Impl& s) {
   }
   if (n->read("particleRadius", o.particleRadius) && !(o.particleRadius >= 0.f))
     fail(n->at("particleRadius"), o.particleRadius, "must be >= 0 (0: 0.3 dx)");
+  if (n->read("wireRadius", o.wireRadius) && !(o.wireRadius >= 0.f))
+    fail(n->at("wireRadius"), o.wireRadius, "must be >= 0 (0: 0.2 particleRadius)");
   if (n->has("cutaway")) {
     Node c = n->object("cutaway");
     std::pair<Vec3f, float> cut{{0.f, 0.f, 1.f}, 0.f};

@@ -3,8 +3,10 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraintSolver.h>
 #include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
+#include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 #include <btBulletDynamicsCommon.h>
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -34,12 +36,14 @@ struct Body {
   std::optional<io::Rgb> color;          ///< drawn in the pictures (every shape but a plane)
   TriangleMesh mesh;                     ///< a mesh shape's triangles, as the pictures draw it
   btVector3 frameImpulse{0, 0, 0};       ///< what the tissue gave it over the frame (shape, slicer, needle)
+  std::optional<double> heldAt;          ///< Bullet's time its script was stopped at (LoadedScene::holdBody)
 };
 
 struct Object {
   std::string name;
   ParticleObjectId id;
   io::Rgb color{215, 110, 105};
+  Material material;  ///< as the file gave it
 };
 
 struct Needle {
@@ -57,15 +61,18 @@ struct Slicer {
 struct Thread {
   std::string name;
   btMultiBody* multibody = nullptr;  ///< destroySutureThread releases it
+  std::vector<std::pair<int, btMultiBodyPoint2Point*>> pins;  ///< by point; released with the thread
 };
 
 struct Output {
   int frames = 60;
   float frameTime = 1.f / 60;
   int pngEvery = 0;  ///< 0: no pictures
+  bool ply = true;   ///< PLY files beside each picture
   io::Camera camera;
   std::optional<std::pair<float, float>> ground;  ///< height, half size [m]
   float particleRadius = 0.f;                     ///< [m]; 0: 0.3 dx
+  float wireRadius = 0.f;                         ///< [m] threads' splats (needles' 1.25 times); 0: 0.2 particleRadius
   std::optional<std::pair<Vec3f, float>> cutaway; ///< normal, offset: particles with n.x > offset are not drawn
   struct Column {
     enum Kind { Position, Velocity, Force, CenterOfMass } kind = Position;
@@ -102,6 +109,8 @@ struct LoadedScene::Impl {
   std::vector<scene_file::Slicer> slicers;
   std::vector<scene_file::Thread> threads;
   scene_file::Output output;
+  std::function<void(float)> tickCallback;     ///< LoadedScene::setTickCallback
+  std::function<void(float)> preTickCallback;  ///< LoadedScene::setPreTickCallback
 
   ~Impl();
   scene_file::Body* findBody(const std::string& name) const;

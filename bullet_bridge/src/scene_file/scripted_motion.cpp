@@ -24,7 +24,7 @@ btTransform Keyframes::pose(double t) const {
   }
   const Keyframe &a = frames[i - 1], &b = frames[i];
   double u = std::clamp((t - a.time) / (b.time - a.time), 0.0, 1.0);
-  if (smoothstep) u = u * u * (3 - 2 * u);
+  if (b.smoothstep.value_or(smoothstep)) u = u * u * (3 - 2 * u);
   const float s = (float)u;
   const Vec3f p = a.position + s * (b.position - a.position);
   const btVector3 axisA = btVector3(a.axis.x, a.axis.y, a.axis.z).normalized();
@@ -35,10 +35,27 @@ btTransform Keyframes::pose(double t) const {
 }
 
 void Keyframes::velocity(double t, btVector3& v, btVector3& w) const {
+  v = w = btVector3(0, 0, 0);
+  if (t <= frames.front().time || frames.size() == 1 || t > frames.back().time) return;  // held
+  size_t i = 1;
+  while (i < frames.size() && frames[i].time < t) ++i;
+  const Keyframe &a = frames[i - 1], &b = frames[i];
+  const btVector3 axisA = btVector3(a.axis.x, a.axis.y, a.axis.z).normalized();
+  const btVector3 axisB = btVector3(b.axis.x, b.axis.y, b.axis.z).normalized();
+  if (axisA == axisB) {
+    // the stretch's own derivative, in double: a central difference of float rotations loses
+    // a slow turn (cos of half of 6e-4 rad rounds to within an ulp of 1)
+    const double T = b.time - a.time, u = std::clamp((t - a.time) / T, 0.0, 1.0);
+    const double dsdt = (b.smoothstep.value_or(smoothstep) ? 6 * u * (1 - u) : 1.0) / T;
+    const Vec3f dp = b.position - a.position;
+    v = btVector3((btScalar)(dp.x * dsdt), (btScalar)(dp.y * dsdt), (btScalar)(dp.z * dsdt));
+    w = axisA * (btScalar)(((double)b.angle - a.angle) * dsdt);
+    return;
+  }
   const double h = 1e-3;
-  const btTransform a = pose(t - h), b = pose(t + h);
-  v = (b.getOrigin() - a.getOrigin()) / (btScalar)(2 * h);
-  const btQuaternion d = b.getRotation() * a.getRotation().inverse();  // world-frame turn over 2h
+  const btTransform before = pose(t - h), after = pose(t + h);
+  v = (after.getOrigin() - before.getOrigin()) / (btScalar)(2 * h);
+  const btQuaternion d = after.getRotation() * before.getRotation().inverse();  // world-frame turn over 2h
   const btScalar angle = d.getAngleShortestPath();
   w = angle > 0 ? d.getAxis() * (angle / (btScalar)(2 * h)) : btVector3(0, 0, 0);
   if (d.getW() < 0) w = -w;  // getAxis of the long way round

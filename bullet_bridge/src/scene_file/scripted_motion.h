@@ -7,6 +7,7 @@
 #include <LinearMath/btTransform.h>
 #include <btBulletDynamicsCommon.h>
 
+#include <optional>
 #include <vector>
 
 #include "mpm/scene.h"
@@ -19,6 +20,7 @@ struct Keyframe {
   Vec3f position{0.f, 0.f, 0.f};
   Vec3f axis{0.f, 0.f, 1.f};
   float angle = 0.f;  ///< [rad] about axis: turns beyond half a circle are kept between two keyframes
+  std::optional<bool> smoothstep;  ///< the stretch into this keyframe; unset: the script's
 };
 
 struct Keyframes {
@@ -28,7 +30,8 @@ struct Keyframes {
   /// interpolated (so a keyframe may turn by more than pi); otherwise the rotations are
   /// slerped.
   btTransform pose(double t) const;
-  /// Velocities by central difference over +-1 ms (as the demos' scripts do).
+  /// Velocities: the stretch's derivative at t (zero where the pose is held); between
+  /// keyframes of different axes the turn by central difference over +-1 ms.
   void velocity(double t, btVector3& v, btVector3& w) const;
 };
 

@@ -63,9 +63,38 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
   n.read("fixedBase", d.fixedBase);
   n.read("friction", d.friction);
   n.read("maxTension", d.maxTension);
+  d.tick = s.tick;  // the world's, unless the thread names another
   n.read("tick", d.tick);
   n.read("collisionGroup", d.collisionGroup);
   n.read("collisionMask", d.collisionMask);
+  // laid along a path: its points, and start and direction from them
+  std::vector<btVector3> laid;
+  if (n.has("path")) {
+    Node pn = n.object("path");
+    if (hasStart || n.has("direction")) fail(n.at("path"), n.require("path"), "not with start or direction");
+    const Json& cornerList = pn.array("corners");
+    std::vector<btVector3> corners;
+    for (size_t k = 0; k < cornerList.size(); ++k) {
+      Vec3f c;
+      parse(cornerList[k], element(pn.at("corners"), k), c);
+      corners.push_back(bt(c));
+    }
+    std::string from = "first";
+    if (pn.read("measuredFrom", from) && from != "first" && from != "last")
+      fail(pn.at("measuredFrom"), from, "must be one of first, last");
+    pn.finish();
+    if (from == "last") std::reverse(corners.begin(), corners.end());
+    // the thread's own checks come later: a count it refuses must not size the path first
+    if (d.segments < 2 || d.segments > 100000) fail(n.at("segments"), d.segments, "must lie in [2, 100000] to lay a path");
+    try {
+      laid = threadPointsAlong(corners, d.length / (float)std::max(d.segments, 1), d.segments);
+    } catch (const InvalidArgument& e) {
+      rethrowAt(e, "threadPointsAlong", pn.path());
+    }
+    if (from == "last") std::reverse(laid.begin(), laid.end());  // point 0 where the length ran out
+    d.start = laid[0];
+    d.direction = laid[1] - laid[0];
+  }
   std::optional<Quat> bend;
   if (n.has("bend")) {
     Quat q;
@@ -97,7 +126,7 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
   }
   n.finish();
   // no start given: the point pinned first to a body, where the pin holds it
-  if (!hasStart) {
+  if (!hasStart && laid.empty()) {
     const Pin* eye = nullptr;
     for (const Pin& p : pins)
       if (p.point == 0 && p.body && p.pivot) eye = &p;
@@ -112,6 +141,7 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
   }
   s.threads.push_back(t);  // owned from here on
   if (bend) bendJoints(t.multibody, *bend);
+  if (!laid.empty()) layThreadAlong(t.multibody, laid);
   for (const Pin& p : pins) {
     // no pivot: the point is held where it is now
     btVector3 pivot = p.pivot ? bt(*p.pivot) : btVector3(0, 0, 0);
@@ -120,7 +150,8 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
       if (p.body) pivot = p.body->body->getCenterOfMassTransform().inverse() * pivot;
     }
     try {
-      pinThreadPoint(s.world.get(), t.multibody, p.point, p.body ? p.body->body.get() : nullptr, pivot);
+      s.threads.back().pins.push_back(
+          {p.point, pinThreadPoint(s.world.get(), t.multibody, p.point, p.body ? p.body->body.get() : nullptr, pivot)});
     } catch (const InvalidArgument& e) {
       rethrowAt(e, "pinThreadPoint ", p.path + ".");
     }

@@ -2,6 +2,7 @@
 /// Output a person can look at: particle files for ParaView/Blender, PNG snapshots from a
 /// headless splat renderer, and a terminal progress bar. Library `mpm_io`; independent of
 /// the solver so that demos and benchmarks share it.
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -10,16 +11,35 @@
 
 namespace mpm::io {
 
+/// 8-bit RGB colour.
+struct Rgb {
+  uint8_t r = 200, g = 90, b = 90;
+};
+
+/// Points with a colour each and line segments between them (edges: index pairs into
+/// `points`): tissue particles, or a needle's arc and a thread as polylines.
+struct PlyFrame {
+  std::vector<Vec3f> points;
+  std::vector<Rgb> colours;                ///< one per point
+  std::vector<std::array<int, 2>> edges;  ///< each a pair of indices into `points`
+  /// Appends `p` in colour `c` as separate points.
+  void addPoints(const std::vector<Vec3f>& p, Rgb c);
+  /// Appends `p` in colour `c` joined by an edge from each point to the next.
+  void addPolyline(const std::vector<Vec3f>& p, Rgb c);
+};
+
+/// Writes `frame` as a binary little-endian PLY: element vertex (x, y, z as float; red,
+/// green, blue as uchar), then element edge (vertex1, vertex2 as int) when it has edges.
+/// ParaView and Blender open it. Throws mpm::Error naming the path if it cannot be written
+/// or an edge names a point it lacks.
+void writePly(const std::string& path, const PlyFrame& frame);
+
 /// Writes a binary little-endian PLY point cloud (x, y, z as float; plus vx, vy, vz when
 /// `velocities` is given and has the same size). ParaView and Blender open it.
 /// Throws mpm::Error naming the path if the file cannot be written.
 void writePly(const std::string& path, const std::vector<Vec3f>& positions,
               const std::vector<Vec3f>* velocities = nullptr);
 
-/// 8-bit RGB colour.
-struct Rgb {
-  uint8_t r = 200, g = 90, b = 90;
-};
 
 /// Pinhole camera looking from `eye` at `target`.
 struct Camera {
