@@ -19,7 +19,7 @@
 #include "pieces.h"
 #include "shapes/shape_builder.h"
 #include "solver_cases.h"
-#include "solvers/cut_transfer.h"
+#include "tools/blade.h"
 
 namespace mpm {
 namespace {
@@ -83,7 +83,7 @@ void runFor(Scene& scene, double t) {
 }
 
 // ---------------------------------------------------------------------------------------
-// The side test (cut_transfer.h): a particle beside the blade records the blade's plane,
+// The side test (tools/blade.h, transfer/cut.h): a particle beside the blade records the blade's plane,
 // and the stencil nodes across it are flagged; nothing is recorded past the edge or within
 // the spine's reach, so pairs across the spine are never flagged.
 

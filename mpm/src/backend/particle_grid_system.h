@@ -20,7 +20,8 @@
 #include "backend/exec_array.h"
 #include "backend/shape_set.h"
 #include "backend/sim_backend.h"
-#include "solvers/cut_transfer.h"
+#include "tools/needle.h"
+#include "transfer/cut.h"
 
 namespace mpm {
 
@@ -55,7 +56,7 @@ struct Cutter {
 /// Records on every particle beside a blade the cut it lies in, and with `impulses`
 /// (materials with toughness) exchanges the resistance to cutting over the substep between
 /// the particle and each blade: the blade's share summed per particle and blade in
-/// `impulses`, the particle's in `push`, which P2G hands to the grid (solvers/cut_transfer.h).
+/// `impulses`, the particle's in `push`, which P2G hands to the grid (transfer/cut.h).
 struct RecordCuts {
   ParticleView P;
   const PartView* parts;

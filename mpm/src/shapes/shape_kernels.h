@@ -4,6 +4,7 @@
 // seed 000 eqs. 17-18; the momentum it removes from the grid goes to the body.
 #include "mpm/math.h"
 #include "mpm/sdf_grid.h"
+#include "core/symmetric3.h"
 #include "shapes/sdf_primitives.h"
 
 namespace mpm {
@@ -12,7 +13,7 @@ namespace mpm {
 /// the curve's tangent survives (curveVelocity).
 enum : int { kContactFrictional = 0, kContactSticky = 1, kContactBonded = 2, kContactCurve = 3 };
 /// kPartBlade: a quad slicer's faces (sdfBladeFaces); its box is faceLower/faceUpper like a
-/// Box's, with the edge at faceLower.y and `radius` the spine's (solvers/cut_transfer.h).
+/// Box's, with the edge at faceLower.y and `radius` the spine's (tools/blade.h).
 /// kPartCurvedBlade: a mesh slicer's faces, its sided distance sampled like a Mesh part's
 /// (buildBladeGrid), `bladeHalf` thick each side; the spine's axis runs from faceLower to
 /// faceUpper, `radius` its radius.
@@ -653,32 +654,6 @@ MPM_HD bool pushOutOfParts(Vec3f& x, const PartView* parts, int nParts, float vo
   for (int i = next; i < nParts; ++i)
     if (parts[i].mayPush(x, x)) pushOutOfPart(x, parts[i], volume0, touch);
   return touch;
-}
-
-/// Inverse of a symmetric 3x3 matrix given as xx, yy, zz, xy, xz, yz.
-MPM_HD Mat3f inverseSymmetric(const float s[6]) {
-  Mat3f a;
-  a.m[0][0] = s[0]; a.m[1][1] = s[1]; a.m[2][2] = s[2];
-  a.m[0][1] = a.m[1][0] = s[3]; a.m[0][2] = a.m[2][0] = s[4]; a.m[1][2] = a.m[2][1] = s[5];
-  const float det = determinant(a);
-  Mat3f inv;
-  if (fabsf(det) < 1e-30f) return inv;  // zero: no rotational response
-  inv.m[0][0] = (a.m[1][1] * a.m[2][2] - a.m[1][2] * a.m[2][1]) / det;
-  inv.m[0][1] = (a.m[0][2] * a.m[2][1] - a.m[0][1] * a.m[2][2]) / det;
-  inv.m[0][2] = (a.m[0][1] * a.m[1][2] - a.m[0][2] * a.m[1][1]) / det;
-  inv.m[1][0] = inv.m[0][1];
-  inv.m[1][1] = (a.m[0][0] * a.m[2][2] - a.m[0][2] * a.m[2][0]) / det;
-  inv.m[1][2] = (a.m[0][2] * a.m[1][0] - a.m[0][0] * a.m[1][2]) / det;
-  inv.m[2][0] = inv.m[0][2];
-  inv.m[2][1] = inv.m[1][2];
-  inv.m[2][2] = (a.m[0][0] * a.m[1][1] - a.m[0][1] * a.m[1][0]) / det;
-  return inv;
-}
-
-/// s v for a symmetric 3x3 matrix s given as xx, yy, zz, xy, xz, yz.
-MPM_HD Vec3f symmetricTimes(const float s[6], Vec3f v) {
-  return {s[0] * v.x + s[3] * v.y + s[4] * v.z, s[3] * v.x + s[1] * v.y + s[5] * v.z,
-          s[4] * v.x + s[5] * v.y + s[2] * v.z};
 }
 
 /// World inertia tensor of a body as xx, yy, zz, xy, xz, yz.

@@ -25,7 +25,7 @@
 #include "backend/shape_set.h"
 #include "backend/sim_backend.h"
 #include "core/constitutive.h"
-#include "solvers/transfer.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 

@@ -21,7 +21,8 @@
 
 #include "backend/cuda/tile_transfers.cuh"
 #include "backend/sim_backend.h"
-#include "solvers/transfer.h"
+#include "transfer/apic.h"
+#include "transfer/grid_nodes.h"
 
 namespace mpm {
 
