@@ -11,7 +11,7 @@
 #include <tuple>
 #include <utility>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "core/per_process.h"
 #include "core/validate.h"
 #include "mpm/scene.h"

@@ -21,9 +21,9 @@
 #include <functional>
 #include <vector>
 
-#include "backend/exec_array.h"
-#include "backend/shape_set.h"
-#include "backend/sim_backend.h"
+#include "system/exec_array.h"
+#include "system/shape_set.h"
+#include "system/sim_backend.h"
 #include "core/constitutive.h"
 #include "transfer/particle_check.h"
 

@@ -32,7 +32,7 @@
 #include "backend/cpu/thread_team.h"
 #include "backend/cpu/update_batch.h"
 #include "transfer/grid_nodes.h"
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 
 namespace mpm {
 

@@ -20,7 +20,7 @@
 #include <string>
 
 #include "backend/cuda/tile_transfers.cuh"
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "transfer/apic.h"
 #include "transfer/grid_nodes.h"
 

@@ -8,8 +8,8 @@
 #include <memory>
 #include <vector>
 
-#include "backend/exec_array.h"
-#include "backend/sim_backend.h"
+#include "system/exec_array.h"
+#include "system/sim_backend.h"
 #include "shapes/shape_kernels.h"
 
 namespace mpm {

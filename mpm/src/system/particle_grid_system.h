@@ -17,9 +17,9 @@
 #include <type_traits>
 #include <utility>
 
-#include "backend/exec_array.h"
-#include "backend/shape_set.h"
-#include "backend/sim_backend.h"
+#include "system/exec_array.h"
+#include "system/shape_set.h"
+#include "system/sim_backend.h"
 #include "tools/needle.h"
 #include "transfer/cut.h"
 
