@@ -18,6 +18,7 @@
 #include "mpm/scene.h"
 #include "pieces.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 #include "solver_cases.h"
 #include "tools/blade.h"
 

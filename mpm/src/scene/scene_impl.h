@@ -23,6 +23,7 @@
 #include "scene/step_worker.h"
 #include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 #include "transfer/cut.h"
 #include "solvers/solver_list.h"
 #include "state/scene_checkpoint.h"

@@ -8,6 +8,7 @@
 #include "scene/particle_seeding.h"
 #include "scene/slot_table.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 #include "shapes/shape_speed.h"
 
 namespace mpm {

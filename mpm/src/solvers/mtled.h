@@ -136,7 +136,7 @@ struct MtledAccelerate {
   }
 };
 
-/// Per node: contact with every part (the grid contact law of shape_kernels.h, the node's
+/// Per node: contact with every part (the grid contact law of contact/contact_law.h, the node's
 /// own position standing for its material), the momentum exchanged kept per node and body.
 struct MtledContact {
   const Vec3f* x;

@@ -451,7 +451,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     if (shapesInReach_) exec_.findNearParts(bins_, shapes_.parts(), shapes_.partCount(), !walls_.mirror);
     timings.contact += seconds(t0);
   }
-  /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
+  /// Grid contact with the shapes (contact/contact_law.h) and the momentum exchange with dynamic
   /// bodies (ShapeSet::exchange), with gravity for the substep if `bodyGravity`. With
   /// every part out of reach the passes get no parts: they only zero the bodies' sums, and
   /// dynamic bodies feel gravity alone.

@@ -1,7 +1,7 @@
 #pragma once
 // A slicer's blades: what they record on the particles they pass (the cut plane the
 // transfers then respect, transfer/cut.h) and the material's resistance to being cut.
-#include "shapes/shape_kernels.h"
+#include "contact/rigid_body.h"
 #include "transfer/cut.h"
 
 namespace mpm {

@@ -4,7 +4,7 @@
 #include <type_traits>
 
 #include "grid/block_grid.h"
-#include "shapes/shape_kernels.h"
+#include "contact/push_out.h"
 
 namespace mpm {
 

@@ -5,7 +5,7 @@
 #include "core/particle_state.h"
 #include "core/substep.h"
 #include "grid/block_grid.h"
-#include "shapes/shape_kernels.h"
+#include "contact/push_out.h"
 
 namespace mpm {
 
