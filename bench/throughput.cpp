@@ -525,7 +525,7 @@ std::string pairsTable(const std::vector<Row>& rows) {
   }
   t << "\nWhat each pair measures:\n\n"
        "- far-shapes: a shape anywhere in the scene turns on the accumulation of each node's material"
-       " centroid (w m x_p, for thin shapes) in P2G (`scatterParticles`, mpm/src/solvers/transfer.h),"
+       " centroid (w m x_p, for thin shapes) in P2G (`scatterParticles`, mpm/src/solvers/substep_stages.h),"
        " whatever its distance; the contact tests each shape against each active block's bounds"
        " before any node, and G2P tests each particle against each part's bounds (`pushOutOfParts`).\n"
        "- big-domain: the active blocks follow the particles; only the dense block table (one int per"
@@ -534,7 +534,7 @@ std::string pairsTable(const std::vector<Row>& rows) {
        " are both purely elastic), so there is no \"elastic skips plasticity\" pair to make; this row"
        " compares the two elastic laws (Neo-Hookean needs no polar decomposition).\n"
        "- slicer, slicer-tough: the cost of a cut in progress (each substep records the blade on the"
-       " particles beside it; a cut particle transfers through its own side's nodes, cut_transfer.h);"
+       " particles beside it; a cut particle transfers through its own side's nodes, transfer/cut.h);"
        " slicer-tough adds the resistance to cutting. Plain runs no cut code: the transfers branch on"
        " a scene flag that stays off until a slicer is added.\n"
        "- thread: a thread of 100 dynamic segments (about 0.9 dx each) lying in seven rows on the box's top"

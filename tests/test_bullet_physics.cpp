@@ -474,7 +474,7 @@ TEST_P(BulletMultiBodyChain, ChainRestsOnTissueWithItsWeight) {
 }
 
 // A resting body must not creep into the tissue. With a dynamic shape's gravity added
-// after the contact response (the first version of shape_kernels.h), a resting body
+// after the contact response (the first version of contact/rigid_body.h), a resting body
 // stepped g h^2 into the tissue every substep h and sank at about g h (3.4 mm/s here,
 // h = 0.35 ms); with gravity before the contact it stays (measured under 0.05 mm over 1.6 s).
 TEST_P(BulletMultiBodyChain, RestingChainDoesNotSinkIntoTissue) {

@@ -18,8 +18,9 @@
 #include "mpm/scene.h"
 #include "pieces.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 #include "solver_cases.h"
-#include "solvers/cut_transfer.h"
+#include "tools/blade.h"
 
 namespace mpm {
 namespace {
@@ -83,7 +84,7 @@ void runFor(Scene& scene, double t) {
 }
 
 // ---------------------------------------------------------------------------------------
-// The side test (cut_transfer.h): a particle beside the blade records the blade's plane,
+// The side test (tools/blade.h, transfer/cut.h): a particle beside the blade records the blade's plane,
 // and the stencil nodes across it are flagged; nothing is recorded past the edge or within
 // the spine's reach, so pairs across the spine are never flagged.
 

@@ -115,7 +115,7 @@ TEST(CylinderBetweenPlatesMpm, BondedPlateHoldsTheCylinderThroughExtension) {
 // Bonded plates pulling the cylinder 20 % over the paper's 3 s ramp at H/dx = 14 (17k
 // particles), against MTLED's converged curve (tests/reference/cylinder_extension_mtled.csv,
 // within 0.7 % of a CalculiX extension reference). Before glued material held its nodes to a
-// full cell (shape_kernels.h, kGluedReach) the node layer pulled away from a plate went free
+// full cell (contact/contact_law.h, kGluedReach) the node layer pulled away from a plate went free
 // at 0.65 dx, the glued particles slid inward with the necking material, and both solvers
 // came out soft and not converging: MLS-MPM final -5.5 % at H/dx = 14 (-2.3 / -4.0 % at 10 /
 // 20), standard MPM -10 %.

@@ -21,7 +21,7 @@
 #include "backend/cpu/cpu_exec.h"
 #include "backend/cpu/thread_team.h"
 #include "mpm/scene.h"
-#include "solvers/transfer.h"
+#include "transfer/apic.h"
 #include "scenes/standard_scenes.h"
 #include "forked_child.h"
 #include "solver_cases.h"

@@ -10,8 +10,11 @@
 #include <vector>
 
 #include "mpm/scene.h"
+#include "contact/contact_law.h"
+#include "contact/push_out.h"
 #include "shapes/sdf_primitives.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 
 namespace mpm {
 namespace {

@@ -14,7 +14,9 @@
 
 #include "mpm/scene.h"
 #include "shapes/shape_builder.h"
-#include "shapes/shape_kernels.h"
+#include "tools/tool_builder.h"
+#include "contact/contact_law.h"
+#include "contact/push_out.h"
 #include "wound_gap.h"
 
 namespace mpm {

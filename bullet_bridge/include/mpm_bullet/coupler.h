@@ -21,7 +21,7 @@
 /// into a stiff slab in 0.8 s that way).
 ///
 /// Light bodies: inside the scene a dynamic body's velocity is updated implicitly every
-/// substep with the mass of the nodes it touches (see shape_kernels.h), so a body lighter
+/// substep with the mass of the nodes it touches (see contact/rigid_body.h), so a body lighter
 /// than the tissue under it settles instead of oscillating; Bullet then receives exactly
 /// the momentum the tissue gave up.
 ///

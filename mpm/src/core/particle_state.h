@@ -12,7 +12,7 @@
 
 namespace mpm {
 
-/// Where a blade has cut past a particle (solvers/cut_transfer.h): the blade's plane as the
+/// Where a blade has cut past a particle (transfer/cut.h): the blade's plane as the
 /// particle sees it, carried with the material. Grid nodes across it are not the
 /// particle's. All zero: never cut.
 struct CutPlane {

@@ -146,7 +146,7 @@ struct GridGeometry {
 
 /// Whether a node's material touches a shape: at least 30 % of its mass lies on particles
 /// within their touch distance of one (ParticleView::touch). Such a node is in contact
-/// beyond a shape's surface (shape_kernels.h, contactNodePart: kRestingReach,
+/// beyond a shape's surface (contact/contact_law.h, contactNodePart: kRestingReach,
 /// kGluedReach). Only material that touches: a reach for every node would stop material
 /// approaching a surface early (a pressing sphere's Hertz force +45 % at R = 4 dx with any
 /// touching particle; with the 30 % share its L2 error falls from 29.7 % to 20.4 %).

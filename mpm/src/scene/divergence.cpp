@@ -5,7 +5,7 @@
 
 #include "core/validate.h"
 #include "solvers/solver_list.h"
-#include "solvers/transfer.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 

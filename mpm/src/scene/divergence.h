@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <string>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 
 namespace mpm {
 

@@ -3,7 +3,7 @@
 // energy against what the start, the shapes' work and gravity supplied.
 #include <vector>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "scene/particle_seeding.h"
 #include "scene/shape_exchange.h"
 

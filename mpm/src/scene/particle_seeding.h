@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <vector>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "scene/slot_table.h"
 
 namespace mpm {

@@ -11,7 +11,7 @@
 #include <tuple>
 #include <utility>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "core/per_process.h"
 #include "core/validate.h"
 #include "mpm/scene.h"
@@ -23,7 +23,8 @@
 #include "scene/step_worker.h"
 #include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
-#include "solvers/cut_transfer.h"
+#include "tools/tool_builder.h"
+#include "transfer/cut.h"
 #include "solvers/solver_list.h"
 #include "state/scene_checkpoint.h"
 

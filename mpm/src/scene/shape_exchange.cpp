@@ -6,6 +6,7 @@
 
 #include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 #include "solvers/solver_list.h"
 
 namespace mpm {

@@ -4,10 +4,11 @@
 #include <memory>
 #include <vector>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "scene/particle_seeding.h"
 #include "scene/slot_table.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 #include "shapes/shape_speed.h"
 
 namespace mpm {

@@ -2,7 +2,7 @@
 // How many substeps an advance takes: the CFL bound on the fastest elastic wave plus the
 // fastest particle or shape, the solver's own stable step, and the limit past which an
 // advance is refused.
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "core/substep.h"
 #include "scene/particle_seeding.h"
 #include "scene/shape_exchange.h"

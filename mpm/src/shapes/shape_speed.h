@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 
 namespace mpm {
 

@@ -3,7 +3,9 @@
 // and the stress force in one affine matrix, A = m C - dt V0 M^-1 tau (tau = P F^T, the
 // Kirchhoff stress); G2P rebuilds v and C from the grid and advances F <- (I + dt C) F.
 #include "core/constitutive.h"
-#include "solvers/cut_transfer.h"
+#include "solvers/substep_stages.h"
+#include "transfer/cut.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 

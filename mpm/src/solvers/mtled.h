@@ -21,11 +21,11 @@
 #include <functional>
 #include <vector>
 
-#include "backend/exec_array.h"
-#include "backend/shape_set.h"
-#include "backend/sim_backend.h"
+#include "system/exec_array.h"
+#include "system/shape_set.h"
+#include "system/sim_backend.h"
 #include "core/constitutive.h"
-#include "solvers/transfer.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 
@@ -136,7 +136,7 @@ struct MtledAccelerate {
   }
 };
 
-/// Per node: contact with every part (the grid contact law of shape_kernels.h, the node's
+/// Per node: contact with every part (the grid contact law of contact/contact_law.h, the node's
 /// own position standing for its material), the momentum exchanged kept per node and body.
 struct MtledContact {
   const Vec3f* x;

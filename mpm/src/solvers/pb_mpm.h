@@ -19,7 +19,9 @@
 // gives a shape is summed, so the exchange stays exact). The material's E and nu play no
 // part: stiffness comes from the iterations (more iterations, stiffer), as in PBD.
 #include "core/pb_projection.h"
-#include "solvers/cut_transfer.h"
+#include "solvers/substep_stages.h"
+#include "transfer/cut.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 

@@ -1,9 +1,9 @@
 #pragma once
 // The solvers, by SolverType: the one place a new solver is registered. Included by each
-// backend's translation unit, which instantiates every solver for its execution backend.
+// backend's methods file (methods/), which instantiates every solver for its execution backend.
 #include <memory>
 
-#include "backend/particle_grid_system.h"
+#include "system/particle_grid_system.h"
 #include "solvers/mls_mpm.h"
 #include "solvers/mtled.h"
 #include "solvers/pb_mpm.h"

@@ -8,7 +8,9 @@
 // (eq. 5), F <- (I + dt L) F (eq. 6), v = a (v + sum w (v_i - v_i,old)) + (1 - a) v_PIC.
 // No affine field: C stays what it was and plays no part.
 #include "core/constitutive.h"
-#include "solvers/cut_transfer.h"
+#include "solvers/substep_stages.h"
+#include "transfer/cut.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 

@@ -5,6 +5,7 @@
 
 #include "mpm/settings_fields.h"
 #include "shapes/shape_builder.h"
+#include "tools/tool_builder.h"
 
 namespace mpm::checkpoint {
 

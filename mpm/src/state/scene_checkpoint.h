@@ -6,7 +6,7 @@
 #include <memory>
 #include <vector>
 
-#include "backend/sim_backend.h"
+#include "system/sim_backend.h"
 #include "mpm/shapes.h"
 #include "scene/particle_seeding.h"
 #include "scene/shape_exchange.h"

@@ -31,7 +31,8 @@
 #include "backend/cpu/stress_batch.h"
 #include "backend/cpu/thread_team.h"
 #include "backend/cpu/update_batch.h"
-#include "backend/sim_backend.h"
+#include "transfer/grid_nodes.h"
+#include "system/sim_backend.h"
 
 namespace mpm {
 

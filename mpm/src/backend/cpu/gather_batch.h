@@ -1,5 +1,5 @@
 #pragma once
-// The APIC gather's sums (solvers/transfer.h, apicSums) of many particles at once, for the
+// The APIC gather's sums (transfer/apic.h, apicSums) of many particles at once, for the
 // CPU's G2P: a node's {mass, velocity} is a Float4, so a vector of kLanes floats holds
 // kLanes / 4 particles' nodes side by side and each instruction of the separable sum serves
 // all of them. Lane by lane the same arithmetic in the same order as apicSums (the same
@@ -14,7 +14,7 @@
 #endif
 
 #include "backend/cpu/stencil_batch.h"
-#include "solvers/transfer.h"
+#include "transfer/apic.h"
 
 namespace mpm {
 

@@ -25,7 +25,7 @@
 #endif
 
 #include "grid/block_grid.h"
-#include "solvers/transfer.h"
+#include "transfer/apic.h"
 
 namespace mpm {
 

@@ -16,7 +16,7 @@
 namespace mpm {
 
 /// The stencils of up to kRun particles, one array per field (the lanes store whole
-/// vectors); at<QuadraticStencil>(q) is particle q's (solvers/transfer.h).
+/// vectors); at<QuadraticStencil>(q) is particle q's (transfer/stencil.h).
 template <int kRun>
 struct StencilRun {
   alignas(64) int base[3][kRun];

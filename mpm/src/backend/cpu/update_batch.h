@@ -15,7 +15,8 @@
 #include <cstdint>
 
 #include "backend/cpu/stencil_batch.h"
-#include "solvers/cut_transfer.h"
+#include "transfer/cut.h"
+#include "transfer/particle_check.h"
 
 namespace mpm {
 

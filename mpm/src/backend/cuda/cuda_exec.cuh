@@ -20,8 +20,9 @@
 #include <string>
 
 #include "backend/cuda/tile_transfers.cuh"
-#include "backend/sim_backend.h"
-#include "solvers/transfer.h"
+#include "system/sim_backend.h"
+#include "transfer/apic.h"
+#include "transfer/grid_nodes.h"
 
 namespace mpm {
 

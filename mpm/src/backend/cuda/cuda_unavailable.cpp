@@ -1,5 +1,5 @@
-// Built instead of cuda_backend.cu when nvcc is absent: CUDA is then never available.
-#include "backend/sim_backend.h"
+// Built instead of cuda_device.cu and methods/cuda_methods.cu when nvcc is absent: CUDA is then never available.
+#include "system/sim_backend.h"
 
 namespace mpm {
 

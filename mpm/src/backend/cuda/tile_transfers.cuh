@@ -5,7 +5,9 @@
 // by block and, within a block, by stencil cell, and each block's run in that order.
 #include <cuda_runtime.h>
 
-#include "solvers/transfer.h"
+#include "core/substep.h"
+#include "transfer/apic.h"
+#include "transfer/grid_nodes.h"
 
 namespace mpm {
 

@@ -8,9 +8,10 @@
 #include <memory>
 #include <vector>
 
-#include "backend/exec_array.h"
-#include "backend/sim_backend.h"
-#include "shapes/shape_kernels.h"
+#include "system/exec_array.h"
+#include "system/sim_backend.h"
+#include "contact/contact_law.h"
+#include "contact/push_out.h"
 
 namespace mpm {
 
@@ -101,7 +102,7 @@ class ShapeSet {
     if (parts_.size() == 0) return;
     exec_.forEach(parts_.size(), kernels::PlaceParts{parts_.data(), bodies_.data(), margin, touchReach});
   }
-  /// The momentum exchange of a substep with the material (DESIGN 5): the dynamic bodies'
+  /// The momentum exchange of a substep with the material (contact/rigid_body.h): the dynamic bodies'
   /// gravity (`gravityDt`, 0 for none), their velocities predicted from measuring passes,
   /// then the applying pass and the bodies' velocities from what they received.
   /// `contactPass(pass)` runs one contact pass over the material's nodes into stepSums().

@@ -1,6 +1,9 @@
-// Instantiates every solver's substep for the CUDA backend.
-#include "backend/cuda/cuda_exec.cuh"
-#include "solvers/solver_list.h"
+// Whether this process has a CUDA device, and its name.
+#include <cuda_runtime.h>
+
+#include <string>
+
+#include "mpm/scene.h"
 
 namespace mpm {
 
@@ -23,11 +26,6 @@ std::string cudaDeviceName() {
     return "";
   }
   return prop.name;
-}
-
-std::unique_ptr<SimBackend> makeCudaBackend(const SceneSettings& settings, const GridGeometry& geo) {
-  if (!cudaDeviceAvailable()) throw BackendUnavailable("no usable CUDA device in this process");
-  return makeSolverBackend<CudaExec>(settings, geo);
 }
 
 }  // namespace mpm

@@ -1,4 +1,5 @@
-// Instantiates every solver's substep for the CPU backend.
+// Instantiates every method's substep for the CPU backend: the one place the CPU execution
+// backend and the solvers meet.
 #include "backend/cpu/cpu_exec.h"
 #include "solvers/solver_list.h"
 

@@ -17,10 +17,11 @@
 #include <type_traits>
 #include <utility>
 
-#include "backend/exec_array.h"
-#include "backend/shape_set.h"
-#include "backend/sim_backend.h"
-#include "solvers/cut_transfer.h"
+#include "system/exec_array.h"
+#include "system/shape_set.h"
+#include "system/sim_backend.h"
+#include "tools/needle.h"
+#include "transfer/cut.h"
 
 namespace mpm {
 
@@ -55,7 +56,7 @@ struct Cutter {
 /// Records on every particle beside a blade the cut it lies in, and with `impulses`
 /// (materials with toughness) exchanges the resistance to cutting over the substep between
 /// the particle and each blade: the blade's share summed per particle and blade in
-/// `impulses`, the particle's in `push`, which P2G hands to the grid (solvers/cut_transfer.h).
+/// `impulses`, the particle's in `push`, which P2G hands to the grid (transfer/cut.h).
 struct RecordCuts {
   ParticleView P;
   const PartView* parts;
@@ -450,7 +451,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
     if (shapesInReach_) exec_.findNearParts(bins_, shapes_.parts(), shapes_.partCount(), !walls_.mirror);
     timings.contact += seconds(t0);
   }
-  /// Grid contact with the shapes (DESIGN 5) and the momentum exchange with dynamic
+  /// Grid contact with the shapes (contact/contact_law.h) and the momentum exchange with dynamic
   /// bodies (ShapeSet::exchange), with gravity for the substep if `bodyGravity`. With
   /// every part out of reach the passes get no parts: they only zero the bodies' sums, and
   /// dynamic bodies feel gravity alone.

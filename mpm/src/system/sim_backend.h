@@ -15,7 +15,8 @@
 #include "core/particle_state.h"
 #include "grid/block_grid.h"
 #include "grid/grid_update.h"
-#include "shapes/shape_kernels.h"
+#include "contact/contact_law.h"
+#include "contact/push_out.h"
 #include "mpm/scene.h"
 #include "mpm/sdf_grid.h"
 
