@@ -1,10 +1,10 @@
 // Signed distance grids from triangle meshes (sdf_grid.h).
 //
 // Every grid sample gets the exact distance to the nearest triangle (Ericson's closest
-// point on a triangle) through a bounding volume hierarchy over the triangles (triangle_bvh.h), and its sign
-// from the generalized winding number w(p) = sum of the triangles' solid angles / 4 pi
-// (van Oosterom-Strackee), inside where |w| > 0.5 (Jacobson et al. 2013, "Robust
-// inside-outside segmentation using generalized winding numbers").
+// point on a triangle) through a bounding volume hierarchy over the triangles
+// (triangle_bvh.h), and its sign from the generalized winding number w(p) = sum of the
+// triangles' solid angles / 4 pi (van Oosterom-Strackee), inside where |w| > 0.5 (Jacobson
+// et al. 2013, "Robust inside-outside segmentation using generalized winding numbers").
 //
 // Cost, n triangles and N = dims[0] dims[1] dims[2] samples:
 //   - hierarchy: O(n log^2 n) to build (median splits, plus each node's boundary chain);
