@@ -5,8 +5,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
-#include <type_traits>
 #include <vector>
 
 #include "backend/cpu/cpu_exec.h"

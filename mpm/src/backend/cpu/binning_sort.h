@@ -3,9 +3,6 @@
 // (build) and the active blocks it gives (activate).
 
 #include <algorithm>
-#include <cmath>
-#include <numeric>
-#include <type_traits>
 #include <vector>
 
 #include "backend/cpu/cpu_exec.h"

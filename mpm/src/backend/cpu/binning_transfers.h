@@ -4,8 +4,6 @@
 // gridToParticle), and each thread's share of the blocks (ownBlocks).
 
 #include <algorithm>
-#include <cmath>
-#include <numeric>
 #include <type_traits>
 #include <vector>
 
