@@ -52,7 +52,7 @@ EMPTY_MASS = 1e-30  # nodes lighter than this hold no material
 
 
 def lattice(half_size):
-    """The box's particle positions, as the library samples them (mpm/src/scene.cpp)."""
+    """The box's particle positions, as the library samples them (mpm/src/scene/particle_seeding.cpp)."""
     n = int(round(2 * half_size / SPACING))
     r = (np.arange(n, dtype=np.float32) + np.float32(0.5) - np.float32(0.5 * n)) * np.float32(SPACING)
     g = np.stack(np.meshgrid(r, r, r, indexing="ij"), axis=-1).reshape(-1, 3)

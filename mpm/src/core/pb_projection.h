@@ -1,8 +1,8 @@
 #pragma once
-// PB-MPM's constraint projection of one particle (Lewin 2024; seed 000 eqs. 13-16), the
-// per-particle form that the device and the CPU's scalar path run; the CPU's P2G takes it
-// for many particles at once in backend/cpu/stress_batch.h (pbProjectionBatch), lane by
-// lane the same arithmetic.
+// PB-MPM's constraint projection of one particle (Lewin 2024; the CRESSim-MPM paper,
+// eqs. 13-16), the per-particle form that the device and the CPU's scalar path run; the
+// CPU's P2G takes it for many particles at once in backend/cpu/stress_batch.h
+// (pbProjectionBatch), lane by lane the same arithmetic.
 #include "core/polar.h"
 
 namespace mpm {

@@ -1,7 +1,8 @@
 #pragma once
-// MLS-MPM (Hu et al. 2018; seed 000 eqs. 9-12, Algorithm 1). P2G fuses the APIC momentum
-// and the stress force in one affine matrix, A = m C - dt V0 M^-1 tau (tau = P F^T, the
-// Kirchhoff stress); G2P rebuilds v and C from the grid and advances F <- (I + dt C) F.
+// MLS-MPM (Hu et al. 2018; the CRESSim-MPM paper, eqs. 9-12, Algorithm 1). P2G fuses the
+// APIC momentum and the stress force in one affine matrix, A = m C - dt V0 M^-1 tau
+// (tau = P F^T, the Kirchhoff stress); G2P rebuilds v and C from the grid and advances
+// F <- (I + dt C) F.
 #include "core/constitutive.h"
 #include "solvers/substep_stages.h"
 #include "transfer/cut.h"

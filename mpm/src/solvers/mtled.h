@@ -1,6 +1,6 @@
 #pragma once
 // MTLED: meshless Total Lagrangian explicit dynamics (Horton, Wittek, Joldes & Miller 2010;
-// seed 004 sections 2-3). The particles are the nodes; stress is evaluated at integration
+// Joldes et al. sections 2-3). The particles are the nodes; stress is evaluated at integration
 // points on a regular background grid (one point per cell holding material). The
 // displacement is interpolated with moving least squares over the n nearest nodes (linear
 // basis, quartic spline weight); each point's derivatives at the reference configuration
@@ -63,7 +63,7 @@ struct MtledModel {
   size_t droppedNodes = 0;
 };
 
-/// Builds the model (seed 004 section 2.1, preprocessing steps 3-4, and section 3.3):
+/// Builds the model (Joldes et al., section 2.1, preprocessing steps 3-4, and section 3.3):
 /// n nearest nodes (support domains) and shape-function derivatives per point, lumped
 /// masses, removal of nodes in fewer than two support domains (repeated until none is
 /// left), the critical step. Throws Error if a moment matrix is singular.

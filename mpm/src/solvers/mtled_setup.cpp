@@ -1,6 +1,6 @@
-// MTLED preprocessing on the host (seed 004 section 2.1, steps 3-4; sections 2.3-2.5, 3.3):
-// support domains of the n nearest nodes, MLS shape-function derivatives, lumped masses,
-// removal of nodes in fewer than two support domains, the critical time step. Eigen
+// MTLED preprocessing on the host (Joldes et al., section 2.1, steps 3-4; sections 2.3-2.5,
+// 3.3): support domains of the n nearest nodes, MLS shape-function derivatives, lumped
+// masses, removal of nodes in fewer than two support domains, the critical time step. Eigen
 // (double precision) for the small moment-matrix solves; runs once per change of the nodes.
 #include <Eigen/Dense>
 #include <algorithm>

@@ -1,12 +1,12 @@
 #pragma once
-// Position-based MPM (Lewin 2024; seed 000 eqs. 13-16): each substep runs `iterations`
-// P2G / grid / G2P cycles with the positions and F held at the start of the substep. In
-// each P2G the particle's candidate deformation from its current velocity gradient C is
-// projected onto the material constraint and turned back into a velocity gradient, which
-// is spread as APIC momentum; G2P gathers v and C from the grid (a Jacobi-style constraint
-// solve). After the last cycle x += dt v and F <- (I + dt C) F with the gathered C, the
-// motion the particles actually make, so F keeps the deformation the constraint has not
-// yet undone.
+// Position-based MPM (Lewin 2024; the CRESSim-MPM paper, eqs. 13-16): each substep runs
+// `iterations` P2G / grid / G2P cycles with the positions and F held at the start of the
+// substep. In each P2G the particle's candidate deformation from its current velocity
+// gradient C is projected onto the material constraint and turned back into a velocity
+// gradient, which is spread as APIC momentum; G2P gathers v and C from the grid (a
+// Jacobi-style constraint solve). After the last cycle x += dt v and F <- (I + dt C) F with
+// the gathered C, the motion the particles actually make, so F keeps the deformation the
+// constraint has not yet undone.
 //
 // The 3D form used here, per particle with F the deformation at the start of the substep:
 //   F*  = (I + dt C) F                                    (eq. 13)

@@ -1,5 +1,5 @@
 #pragma once
-// Standard MPM, update-stress-last with a PIC/FLIP blend (seed 000 eqs. 1-8).
+// Standard MPM, update-stress-last with a PIC/FLIP blend (the CRESSim-MPM paper, eqs. 1-8).
 //
 // P2G: mass, momentum m v, and the internal force f_i = -sum V sigma grad w_i, written
 // with the Kirchhoff stress as -sum V0 tau grad w_i (V sigma = J V0 sigma = V0 tau, so the

@@ -10,9 +10,9 @@
 // Why both: P2G's scatter node by node was bound by its instruction count, not by its adds
 // to the tile. Summing by cell alone took about 5 % off P2G, rows of three alone nothing (a
 // row's load then waited on the previous particle's overlapping store); together about 15 %
-// (MLS-MPM and PB-MPM, embedding scene, session 20's note). Taking a particle's nine rows at
-// once from its row terms q_ik, w_ik (apicScatterTerms's factoring) took P2G's share at 125k
-// particles from about 54 % to 51.5 % (session 21).
+// (MLS-MPM and PB-MPM, embedding scene). Taking a particle's nine rows at once from its row
+// terms q_ik, w_ik (apicScatterTerms's factoring) took P2G's share at 125k particles from
+// about 54 % to 51.5 %.
 //
 // Order: each cell's particles are summed in the order they were recorded (the block's
 // particle order), the cells in index order, and the cells' sums are added to the tile after
