@@ -168,7 +168,7 @@ TEST(ThreadCoupling, AnchoredThreadIsDraggedByTheTissueAndKeepsItsAnchor) {
 // where the band's edge sweeps node layers near a face: tissue at up to 0.17 m/s (0.23
 // from the back), the thread following it at 0.05 m/s (3 times the holder; with the band
 // 0.75 dx the thread stayed under twice the holder's speed). Sideways the segments turn
-// against the material; before their angular exchange changed (shape_kernels.h,
+// against the material; before their angular exchange changed (contact/rigid_body.h,
 // settleBodyVelocity) the links took hundreds of times their share: points at 7.8 m/s and
 // the pin 8.4 mm open within 3 ticks; from the back face, before every segment was asked
 // for a node's nearest (nearerSegment), the lead segment and one two further on both took

@@ -37,7 +37,7 @@
 namespace mpm {
 
 // Which tile fields a transfer kernel uses: UsesCentroid, UsesImpulse, UsesOldVelocity
-// (solvers/transfer.h).
+// (transfer/grid_nodes.h).
 
 /// kBatchedStress: P2G needs of the material only tau = kirchhoffStress(materials[
 /// P.object[p]], P.F[p]) and takes it in scatterStressed(p, tau, nodes), so the CPU
