@@ -9,13 +9,17 @@
 // needle force, gap, thread tension at the eye, eye pin gap, tip inside, needle turn, wall
 // time) and summary.txt.
 //
-// Status (dx 2.5 mm, 12 s, 240 frames, 166 s on 2 idle cores; MLS-MPM): the tip breaks
-// into block 1 at 1.05 s, the needle goes through both bites (peak force 0.137 N) and draws
-// the thread after it; pulled up over the wound the thread, held by the tissue
-// (ThreadCoupling::addedMass), draws the gap from 7.25 mm to about 2 mm, where the pull
-// stops and holds. The tension there peaks within 2 % of --hold-tension, so which of the two
-// stops fires first moves with float rounding: measured, 10.20 s on 1.00 N (gap 2.48 mm,
-// 2.43 mm at the end), or 10.55 s on the 2 mm gap (0.98 N at the most; README, Suturing).
+// Status (dx 2.5 mm, 12 s, 240 frames, about 2 min on 2 idle cores; MLS-MPM): the tip
+// breaks into block 1 at 1.05 s, the needle goes through both bites (peak force 0.137 N)
+// and draws the thread after it; pulled up over the wound the thread, held by the tissue
+// (ThreadCoupling::addedMass), draws the gap from 7.25 mm down, and the pull stops and
+// holds where it reaches 2.5 mm (about 10.2 s). Both stops sit on the steep part of the
+// closing: the gap falls 0.2 mm a frame there and the tension is still rising through
+// 0.9 N, so either stop holds the wound at about the same frame (measured in two builds:
+// the gap at 10.25 s, 2.43 mm; the tension at 10.20 s, 1.00 N and 2.48 mm). At 2 mm they
+// did not: the gap's least (2.00 mm) and the tension's peak (0.98-1.00 N) are where the
+// thread starts to cut out of a bite, and a build that missed both by 4 um and 25 mN let
+// the wound open again to 6.6 mm.
 // --solver pb advances PB-MPM once every 6 Bullet ticks (world.tissueInterval); --one-way
 // and --no-added-mass show the couplings without the hold; --set patches anything else in
 // the file.
@@ -55,7 +59,7 @@ int main(int argc, char** argv) {
   std::string scenePath = MPM_ASSETS_DIR "/scenes/suturing.json", solverName = "mls";
   demo::SceneOptions options;
   options.out = "out/suturing";
-  float dx = 0.f, holdTension = 1.f, closeGap = 0.002f;
+  float dx = 0.f, holdTension = 1.f, closeGap = 0.0025f;
   bool oneWay = false, noAddedMass = false;
   int frames = -1;
   app.add_option("--scene", scenePath, "the scene file");

@@ -139,6 +139,8 @@ std::vector<ToolDrawing> toolDrawings(const LoadedScene::Impl& s, float wire) {
   for (const Thread& t : s.threads) {
     ToolDrawing d{{}, true, {40, 90, 200}, wire};
     for (const btVector3& p : threadPoints(t.multibody)) d.points.push_back(vec(p));
+    // a fixed base is the knot: a dark bead where the thread starts, large enough to see
+    if (t.multibody->hasFixedBase() && !d.points.empty()) out.push_back({{d.points.front()}, false, {25, 25, 30}, 5.f * wire});
     out.push_back(std::move(d));
   }
   return out;
