@@ -413,7 +413,8 @@ TEST(SceneFile, AnOverrideOfANamedElementPatchesThatElementOnly) {
 // --- PLY frames ------------------------------------------------------------------------
 
 // The tissue file holds every particle (the cutaway is the picture's only) in its object's
-// colour; the tools file the needle's arc (33 points, 32 edges) and the thread (31, 30).
+// colour; the tools file the needle's arc (33 points, 32 edges), the knot where the thread's
+// fixed base is (one point, no edge) and the thread (31, 30).
 TEST(SceneFilePly, FrameReadsBackAsTheSceneIs) {
   auto loaded = LoadedScene::fromFile(mpm::test::assetPath("scenes/suturing.json"),
                                       R"({"settings": {"dx": 0.005, "cpuThreads": 1}})");
@@ -434,11 +435,13 @@ TEST(SceneFilePly, FrameReadsBackAsTheSceneIs) {
   EXPECT_EQ(t.frame.colours.front().g, 110);  // the left block's [215, 110, 105]
   EXPECT_EQ(t.frame.colours.back().g, 150);   // the right one's [235, 150, 130]
   const mpm::test::PlyRead w = mpm::test::readPly(tools);
-  EXPECT_EQ(w.vertexCount, 33u + 31u);
+  EXPECT_EQ(w.vertexCount, 33u + 1u + 31u);
   EXPECT_EQ(w.edgeCount, 32u + 30u);
   EXPECT_EQ(w.trailingBytes, 0u);
   const std::vector<btVector3> thread = mpm::bullet::threadPoints(loaded->thread("thread"));
+  ASSERT_EQ(w.frame.points.size(), 33u + 1u + 31u);
   EXPECT_EQ(w.frame.points.back().x, (float)thread.back().x());
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(w.frame.points[33][c], (float)thread.front()[c]) << "the knot sits on the thread's base";
   EXPECT_FALSE(LoadedScene::fromFile(mpm::test::assetPath("scenes/suturing.json"),
                                      R"({"settings": {"dx": 0.005, "cpuThreads": 1}, "output": {"ply": false}})")
                    ->plyDue());
