@@ -18,13 +18,15 @@ ctest --test-dir build --output-on-failure -j "$jobs" "$@"
 
 # The Python module (tests/python, pytest): built above when CMake found pybind11 and the
 # python3 headers (MPM_BUILD_PYTHON); run in a virtual environment kept in the build tree,
-# made with the interpreter the module was built for, numpy, pytest and pybullet from PyPI.
+# made with the interpreter the module was built for, numpy, pytest and pybullet from PyPI, and
+# for the learning environments (mpm_bullet.envs) gymnasium, Ray RLlib and the torch its env
+# runners' module needs (about 6 GB; none of them is a dependency of the library).
 if grep -q '^MPM_BUILD_PYTHON:BOOL=ON' build/CMakeCache.txt; then
   python="$(sed -n 's/^_Python_EXECUTABLE:INTERNAL=//p' build/CMakeCache.txt)"
   venv=build/pyvenv
   [ -x "$venv/bin/python" ] || "$python" -m venv "$venv"
-  "$venv/bin/python" -c 'import numpy, pytest, pybullet' 2>/dev/null ||
-    "$venv/bin/pip" install -q --disable-pip-version-check numpy pytest pybullet
+  "$venv/bin/python" -c 'import numpy, pytest, pybullet, gymnasium, ray.rllib, torch' 2>/dev/null ||
+    "$venv/bin/pip" install -q --disable-pip-version-check numpy pytest pybullet gymnasium "ray[rllib]" torch
   PYTHONPATH="$root/build/python" "$venv/bin/python" -m pytest -q -p no:cacheprovider tests/python
 else
   echo "test.sh: Python module not built (MPM_BUILD_PYTHON off: pybind11-dev or the python3 headers missing)"
