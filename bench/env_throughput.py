@@ -55,7 +55,7 @@ def main():
         med = [statistics.median(f() for _ in range(args.repeats)) for f in (
             lambda: single(task, 60),
             lambda: vector(task, 16, 20, threads),
-            lambda: (lambda s, sec, _: s / sec)(*collect(task, 2, 8, 40)))]
+            lambda: (lambda s, sec, *_: s / sec)(*collect(task, 2, 8, 40)))]
         rows.append(f"| {task} | {particles} | {env.scene.dx * 1e3:g} | {med[0]:.1f} | {med[1]:.1f} | {med[2]:.1f} |")
         print(rows[-1], flush=True)
     with open(args.out, "w") as f:

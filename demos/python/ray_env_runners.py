@@ -16,9 +16,12 @@ import argparse
 import os
 import time
 
+import numpy as np
+
 
 def collect(task, runners, envs, timesteps, address=None, threads=1):
-    """Collects `timesteps` per runner; returns (timesteps collected, seconds, runner pids)."""
+    """Collects `timesteps` per runner; returns (timesteps collected, seconds, runner pids,
+    episodes ended, whether every observation was finite)."""
     import ray
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.env.env_runner_group import EnvRunnerGroup
@@ -41,10 +44,12 @@ def collect(task, runners, envs, timesteps, address=None, threads=1):
         seconds = time.perf_counter() - t
         pids = group.foreach_env_runner(lambda r: os.getpid(), local_env_runner=False)
         steps = sum(len(e) for runner in episodes for e in runner)
+        ended = sum(e.is_done for runner in episodes for e in runner)
+        finite = all(np.isfinite(np.asarray(e.get_observations())).all() for runner in episodes for e in runner)
         group.stop()
         if len(pids) != runners or steps == 0:
             raise RuntimeError(f"{len(pids)} of {runners} env runners answered, {steps} steps (see Ray's log)")
-        return steps, seconds, pids
+        return steps, seconds, pids, ended, finite
     finally:
         if started:
             ray.shutdown()
@@ -55,12 +60,12 @@ def main():
     parser.add_argument("--task", default="NeedleInsertion-v0")
     parser.add_argument("--runners", type=int, default=2)
     parser.add_argument("--envs", type=int, default=8, help="environments per runner")
-    parser.add_argument("--timesteps", type=int, default=160, help="per runner")
+    parser.add_argument("--timesteps", type=int, default=1000, help="per runner")
     parser.add_argument("--address", default=None, help="a running Ray cluster (default: a local one)")
     args = parser.parse_args()
-    steps, seconds, pids = collect(args.task, args.runners, args.envs, args.timesteps, args.address)
+    steps, seconds, pids, ended, finite = collect(args.task, args.runners, args.envs, args.timesteps, args.address)
     print(f"{args.task}: {args.runners} env runners (pids {pids}) x {args.envs} environments: {steps} steps in "
-          f"{seconds:.2f} s, {steps / seconds:.1f} steps/s")
+          f"{seconds:.2f} s, {steps / seconds:.1f} steps/s; {ended} episodes ended; observations finite: {finite}")
 
 
 if __name__ == "__main__":

@@ -33,7 +33,8 @@ def _planar(points):
 
 class TissueRetractionEnv(SurgicalEnv):
     """Lift the free end of a tissue flap (10 x 2 x 4 cm, E 20 kPa, bonded to the floor under
-    its left half) with a grasper glued to its top (a Bonded kinematic box) to a target point.
+    its left half, the right half overhanging) with a grasper whose two jaws are closed on its
+    end (Bonded kinematic boxes above and below it) to a target point.
 
     Action (3,) in [-1, 1]: the grasper's velocity times 5 cm/s.
     Observation (63,): grasper position, velocity; target; the flap's end (the mean of the
@@ -44,7 +45,7 @@ class TissueRetractionEnv(SurgicalEnv):
 
     settings = _settings((-0.09, -0.04, -0.06), (0.09, 0.1, 0.06), 0.01)
     speed = 0.05
-    lower, upper = np.array([-0.02, 0.02, -0.02]), np.array([0.06, 0.08, 0.02])
+    lower, upper = np.array([-0.02, 0.0, -0.02]), np.array([0.06, 0.07, 0.02])
 
     def __init__(self, **kwargs):
         self.action_space = box_space(3, -1.0, 1.0)
@@ -57,10 +58,10 @@ class TissueRetractionEnv(SurgicalEnv):
                                     "material": TISSUE})
         s.add_shape([{"type": "box", "halfExtents": [0.03, 0.005, 0.03]}], position=(-0.03, -0.005, 0),
                     contact={"mode": "bonded"})
-        s.add_shape([{"type": "box", "halfExtents": [0.03, 0.005, 0.03]}], position=(0.03, -0.005, 0),
-                    contact={"mode": "frictional", "friction": 0.3})
-        self.grasper = s.add_shape([{"type": "box", "halfExtents": [0.01, 0.005, 0.01]}],
-                                   position=(0.035, 0.025, 0), contact={"mode": "bonded"})
+        # two jaws closed on the flap's end, above and below it: the lower one carries it up
+        jaw = {"type": "box", "halfExtents": [0.01, 0.004, 0.01]}
+        self.grasper = s.add_shape([dict(jaw, position=[0, 0.014, 0]), dict(jaw, position=[0, -0.014, 0])],
+                                   position=(0.035, 0.01, 0), contact={"mode": "bonded"})
         x = s.positions(self.tissue)
         self.end = np.flatnonzero((np.abs(x[:, 0] - 0.035) < 0.01) & (x[:, 1] > 0.01) & (np.abs(x[:, 2]) < 0.01))
         grid = [(u, 0.02, w) for u in np.linspace(-0.045, 0.045, 8) for w in (-0.01, 0.01)]
@@ -90,8 +91,9 @@ class TissueRetractionEnv(SurgicalEnv):
         return (reward + 1.0, True) if d < 0.005 else (reward, False)
 
     def _render_points(self):
-        p = self.scene.shape_state(self.grasper)[0]
-        return [(self.scene.positions(self.tissue), TISSUE_RGB), (box_points(p, (0.01, 0.005, 0.01)), TOOL_RGB),
+        p = np.asarray(self.scene.shape_state(self.grasper)[0])
+        jaws = [box_points(p + (0, y, 0), (0.01, 0.004, 0.01)) for y in (0.014, -0.014)]
+        return [(self.scene.positions(self.tissue), TISSUE_RGB), (np.concatenate(jaws), TOOL_RGB),
                 (box_points(self.task["target"], (0.002, 0.002, 0.002), 0.001), TARGET_RGB)]
 
 
