@@ -58,9 +58,10 @@ def main():
             lambda: (lambda s, sec, *_: s / sec)(*collect(task, 2, 8, 40)))]
         rows.append(f"| {task} | {particles} | {env.scene.dx * 1e3:g} | {med[0]:.1f} | {med[1]:.1f} | {med[2]:.1f} |")
         print(rows[-1], flush=True)
+    idle = args.idle.split(",")[-1]  # top's field may come as "ni,99.5"
     with open(args.out, "w") as f:
         f.write(f"# Environment steps per second\n\nMachine: {platform.processor() or platform.machine()}, "
-                f"{threads} hardware threads ({args.idle.split(",")[-1] or '?'} % idle before the run); `bench/run_env_throughput.sh`. "
+                f"{threads} hardware threads ({idle or '?'} % idle before the run); `bench/run_env_throughput.sh`. "
                 f"One step: one action, {1 / 30:.4f} s simulated. Medians of {args.repeats} runs, random actions.\n\n"
                 "| task | particles | dx [mm] | 1 env | vector of 16 (SceneBatch, "
                 f"{threads} threads) | 2 Ray env runners x 8 |\n|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
