@@ -132,12 +132,13 @@ double exactDistance(const ShapeDesc& d, Vec3f x) { return exactDistance(d, Pose
 /// Part 0 of `d` as the kernels see it, placed at the shape's pose, anchored for a domain
 /// centred at `near`.
 PartView placedPart(const ShapeDesc& d, Vec3f near, float margin = 0.f, float touchReach = INFINITY,
-                    float minHalfThickness = 0.f) {
+                    float minHalfThickness = 0.f, float glueReach = 0.f) {
   const ShapeState state{d.pose, d.linearVelocity, d.angularVelocity};
   std::vector<PartView> parts;
   appendParts(d, state, 0, minHalfThickness, near, [](const std::shared_ptr<const SignedDistanceGrid>&) { return (const float*)nullptr; },
               parts);
-  const BodyView b = makeBody(d, state, 0.f);
+  BodyView b = makeBody(d, state, 0.f);
+  b.glueReach = glueReach;
   placePart(parts[0], b, margin, touchReach);
   return parts[0];
 }
@@ -312,9 +313,10 @@ TEST(ShapeContact, EarlyOutBoundHoldsForEveryLipschitzPart) {
 }
 
 // G2P tries a particle against a part only inside the part's push-out box (PartView::
-// mayPush): an analytic part's own box grown by the particles' largest touch distance and a
-// slack for rounding, not the grid's bounds (a cell and the band more). Outside it no
-// particle of any volume up to the largest may be pushed or touch the part: checked for
+// mayPush): an analytic part's own box grown by the particles' largest touch distance (a
+// Bonded part's glue reach, where larger) and a slack for rounding, not the grid's bounds
+// (a cell and the band more). Outside it no particle of any volume up to the largest may
+// be pushed or touch the part, glued or not: checked for
 // each analytic part, turned, near the origin and 40 m from it (coordinates with 4e-6 m
 // float spacing), at random points and at points a float outside each face of the box. The
 // box must stay within the grid's bounds (the blocks' part lists are made from those) and
@@ -330,7 +332,9 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
   for (const float far : {0.f, 40.f, 400.f})
     for (GeometryType t : {GeometryType::Plane, GeometryType::Box, GeometryType::Sphere, GeometryType::Capsule,
                            GeometryType::Cylinder})
-      for (const bool turned : {false, true}) {
+      for (const bool turned : {false, true})
+      for (const float glueReach : {0.f, dx}) {
+        const bool glued = glueReach > 0.f;  // a Bonded part, the particles having touched it
         ShapeDesc d;
         d.parts = {Geometry{}};
         d.parts[0].type = t;
@@ -340,14 +344,15 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
         d.pose.position = {far + 0.01f, 0.12f, -0.02f};
         if (turned) d.pose.rotation = turn;
         const Vec3f near{far, 0.1f, 0.f};
-        const PartView part = placedPart(d, near, dx, reach, 0.75f * dx);
+        if (glued) d.contact.mode = ContactMode::Bonded;
+        const PartView part = placedPart(d, near, dx, reach, 0.75f * dx, glueReach);
         const std::string what = "geometry " + std::to_string((int)t) + (turned ? " turned" : "") + " at " +
-                                 std::to_string(far) + " m";
+                                 std::to_string(far) + " m" + (glued ? " glued" : "");
         for (int a = 0; a < 3; ++a) {
           EXPECT_GE(part.pushLower[a], part.boundsLower[a]) << what;
           EXPECT_LE(part.pushUpper[a], part.boundsUpper[a]) << what;
         }
-        if (t == GeometryType::Sphere)  // the grid's cell either side is not the particles'
+        if (t == GeometryType::Sphere && !glued)  // the grid's cell either side is not the particles' (glued: a cell is)
           EXPECT_LT(part.pushUpper.x - part.pushLower.x, part.boundsUpper.x - part.boundsLower.x - 2.f * dx) << what;
         // points in the part's own box grown by two reaches (a plane: about its anchor)
         Vec3f lo, hi;
@@ -359,7 +364,7 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
           if (part.mayPush(x, x)) {
             bool touch = false;
             Vec3f y = x;
-            if (pushOutOfPart(y, part, largest, touch) || touch) ++touchingInside;
+            if (pushOutOfPart(y, part, largest, glued, touch) || touch) ++touchingInside;
             return;
           }
           ++outside;
@@ -367,7 +372,7 @@ TEST(ShapeContact, NoParticlePushedOrTouchingOutsideThePushBox) {
           for (const float v : {largest, largest * share(rng), 1e-12f}) {
             bool touch = false;
             Vec3f y = x;
-            const bool moved = pushOutOfPart(y, part, v, touch);
+            const bool moved = pushOutOfPart(y, part, v, glued, touch);
             EXPECT_FALSE(moved || touch) << what << ": x " << x.x << " " << x.y << " " << x.z << " volume " << v;
           }
         };
@@ -443,7 +448,7 @@ TEST(ShapeContact, ArcLowerDistanceNeverExceedsTheDistance) {
       const bool movesFull = phi < 0.f && !beyond;
       bool touch = false;
       Vec3f y = x;
-      const bool moved = pushOutOfPart(y, arc, volume0, touch);
+      const bool moved = pushOutOfPart(y, arc, volume0, false, touch);
       ASSERT_EQ(touch, touchFull) << "point " << k;
       ASSERT_EQ(moved, movesFull) << "point " << k;
       if (moved) {

@@ -20,6 +20,9 @@ struct BodyView {
   Vec3f shapeOrigin;    ///< world position of the shape frame's origin [m]
   int mode = kContactFrictional;
   float friction = 0.f, drag = 1.f, band = 0.f;
+  /// Bonded on a grid: how far from the body's parts material that touched it stays glued
+  /// to it (push_out.h, pushOutOfParts) [m]; 0: nothing is glued
+  float glueReach = 0.f;
   int dynamic = 0;      ///< 1: velocity responds to the grid within the step
   float mass = 0.f;     ///< [kg] (dynamic)
   Vec3f inertia;        ///< principal moments in the shape frame [kg m^2] (dynamic)
@@ -240,13 +243,15 @@ MPM_HD void placePart(PartView& p, const BodyView& b, float margin, float touchR
   // the rounding of the box and of the distance (a few float spacings of the coordinates
   // and extents involved). The grid's bounds had been used: under 100 small spheres each
   // top particle was tried against about twelve, a third of what the spheres cost G2P.
-  // Never beyond the grid's bounds, which the blocks' part lists are made from.
+  // Never beyond the grid's bounds, which the blocks' part lists are made from. A Bonded
+  // part's glued material is looked for within its glue reach.
+  p.glueReach = b.glueReach;
   float push = grow;
   if (p.lipschitzDistance()) {
     float scale = fmaxf(fmaxf(fabsf(p.position.x), fabsf(p.position.y)), fabsf(p.position.z));
     if (p.type != kPartPlane)  // a plane's extents are unbounded: its distance is along its normal
       for (int a = 0; a < 3; ++a) scale = fmaxf(scale, fmaxf(fabsf(p.localLower[a]), fabsf(p.localUpper[a])));
-    push = fminf(grow, 1.001f * touchReach + 1e-5f * scale);
+    push = fminf(grow, fmaxf(1.001f * touchReach, p.glueReach) + 1e-5f * scale);
   }
   p.pushLower = lo - Vec3f{push, push, push};
   p.pushUpper = hi + Vec3f{push, push, push};

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <memory>
 
+#include "contact/contact_law.h"
 #include "scene/substep_policy.h"
 #include "shapes/shape_builder.h"
 #include "tools/tool_builder.h"
@@ -19,6 +20,10 @@ namespace {
 /// and a compressed one measured 23 % soft at H = 10 dx). MTLED's nodes are tested at
 /// their own positions: its band is the shape's own.
 float bondedBand(const SceneSettings& s) { return solverTraits(s.solver).meshless ? 0.f : 0.5f * s.dx; }
+/// How far from a Bonded shape material that touched it stays glued (BodyView::glueReach):
+/// as far as the nodes it holds reach (kGluedReach). MTLED: nothing glued (its contact
+/// has no touching share).
+float glueReach(const SceneSettings& s) { return solverTraits(s.solver).meshless ? 0.f : kGluedReach * s.dx; }
 /// Least half-thickness of a part on a grid, 0.75 dx: a thinner rod, plate or sphere
 /// gets the band that makes up the difference (PartView::band). MTLED: none.
 float thinPartHalfThickness(const SceneSettings& s) { return solverTraits(s.solver).meshless ? 0.f : 0.75f * s.dx; }
@@ -64,6 +69,7 @@ BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const
     const int b = (int)bodies.size();
     map.shapes[i] = b;
     bodies.push_back(makeBody(shapes[i].desc, shapes[i].state, bondedBand(settings)));
+    if (bodies.back().mode == kContactBonded) bodies.back().glueReach = glueReach(settings);
     appendParts(shapes[i].desc, shapes[i].state, b, thinPartHalfThickness(settings), domainCentre(settings),
                 [&](const std::shared_ptr<const SignedDistanceGrid>& g) {
       meshes.push_back(g.get());

@@ -93,6 +93,8 @@ struct PartView {
   /// How far the bounds reach beyond the part's own box (placePart: the grid's margin and
   /// the band) [m]: a point outside the bounds lies at least this far from an analytic part.
   float boundsGrowth = 0.f;
+  /// Its body's BodyView::glueReach (placePart), where the particles see it [m].
+  float glueReach = 0.f;
 
   /// The sided distance of a curved blade at p (part frame) and the unit normal toward p's
   /// side; false where no blade is beside p (buildBladeGrid's kNoBlade within reach).

@@ -37,7 +37,7 @@ MPM_HD StepCheck finishParticle(uint32_t p, const ParticleView& P, const GridGeo
   const float* F = &P.F[p].m[0][0];
   const float sum = stateSum(&x.x, &v.x, F);
   if (!isFinite(sum) || !geo.stencilInside(x) || !volumeRatioSound(F)) c.firstBadParticle = p;
-  P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, P.volume0[p], near) ? 1.f : 0.f;
+  P.touch[p] = nParts && pushOutOfParts(P.x[p], parts, nParts, P.volume0[p], near, P.touch[p] > 0.f) ? 1.f : 0.f;
   c.maxSpeed2 = dot(v, v);
   return c;
 }

@@ -161,7 +161,7 @@ StepCheck apicUpdateBatch(const G2P& f, const uint32_t* ids, int n, const Stenci
     for (uint32_t bits = simd::laneBits(mine & pushed); bits; bits &= bits - 1) {
       const int l = __builtin_ctz(bits);
       const uint32_t p = id[l];
-      touch[l] = pushOutOfParts(P.x[p], f.parts, f.nParts, P.volume0[p], near) ? 1.f : 0.f;
+      touch[l] = pushOutOfParts(P.x[p], f.parts, f.nParts, P.volume0[p], near, P.touch[p] > 0.f) ? 1.f : 0.f;
     }
     if (!anyOwn && simd::consecutive(id, lanes)) {
       __builtin_memcpy(&P.touch[id[0]], touch, sizeof(touch));
