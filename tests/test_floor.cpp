@@ -16,6 +16,7 @@
 
 #include <btBulletDynamicsCommon.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -237,6 +238,27 @@ INSTANTIATE_TEST_SUITE_P(SurfaceNearALayer, LargeGround,
                            return offsetName(std::get<0>(info.param)) + "_" +
                                   test::solverName(std::get<1>(info.param));
                          });
+
+// Where the surface falls changes the slab's stiffness little: over the seven offsets 0,
+// +-1e-6 m, 1/8, 1/4, 1/2 and 3/4 of a cell, each shortening within 10 % of their mean, on a
+// Plane (the other floors give the same values, FloorSweep). Measured: MLS-MPM 0.958-1.055
+// times the uniaxial value, at most 7.4 % from the mean; standard MPM 0.964-1.077, 7.9 %.
+class FloorOffsets : public ::testing::TestWithParam<SolverType> {};
+
+TEST_P(FloorOffsets, ShorteningVariesWithinTenPercentOfTheMean) {
+  std::vector<double> ratios;
+  for (int i : {0, 1, 2, 3, 4, 6, 8}) ratios.push_back(restOnFloor(Floor::Plane, surfaceOffset(i), GetParam()).ratio);
+  double mean = 0;
+  for (double r : ratios) mean += r / ratios.size();
+  double worst = 0;
+  for (double r : ratios) worst = std::max(worst, std::fabs(r / mean - 1));
+  std::printf("%s: shortening / uniaxial over seven offsets, mean %.3f, at most %.1f %% from it\n",
+              test::solverName(GetParam()).c_str(), mean, 100 * worst);
+  EXPECT_LT(worst, 0.10);
+}
+
+INSTANTIATE_TEST_SUITE_P(ElasticGridSolvers, FloorOffsets, ::testing::Values(SolverType::MlsMpm, SolverType::StandardMpm),
+                         [](const auto& info) { return test::solverName(info.param); });
 
 INSTANTIATE_TEST_SUITE_P(
     AllFloors, FloorSweep,
