@@ -75,6 +75,8 @@ MPM_HD bool pushOutOfPart(Vec3f& x, const PartView& part, float volume0, bool to
 /// the face under tension (the nodes beyond the held layer pull on it), and with touch
 /// alone a block pulled by a Bonded plate went free once its glued particles had drifted
 /// past touchDistance (force plateau from 14 % strain, none from 26 %, E A s expected).
+/// The flag does not say which shape was touched: material resting on another shape within
+/// a cell of a Bonded one counts as glued to it too (one float per particle, no more).
 ///
 /// Only the parts whose push-out box holds x (mayPush): outside it a part neither pushes
 /// nor touches x. With `near`, only its parts while x lies in its box: every other part's
