@@ -61,7 +61,9 @@ struct Geometry {
 enum class ContactMode {
   Frictional,  ///< Coulomb friction mu_k then drag c_d on the tangential slip; separates freely
   Sticky,      ///< no slip while pressed on; separates freely
-  Bonded       ///< no slip, no separation: clamps, graspers, glued ends
+  /// no slip, no separation: clamps, graspers, glued ends. On a grid the material it touches
+  /// stays glued while within a cell of it (pulled to 60 % strain, tests/test_grips.cpp)
+  Bonded
 };
 
 struct ContactParams {
