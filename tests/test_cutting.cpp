@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "mpm/scene.h"
+#include "cutting_scene.h"
 #include "pieces.h"
 #include "shapes/shape_builder.h"
 #include "tools/tool_builder.h"
@@ -25,32 +26,13 @@
 namespace mpm {
 namespace {
 
-constexpr float kDx = 0.01f;
-// The block: 8 x 4 x 6 cm, centred at the origin; blades cut it across z.
-const Vec3f kBlockHalf{0.04f, 0.02f, 0.03f};
+constexpr float kDx = test::kCutDx;
+using test::kBlockHalf;
 // The cut plane lies off the node layers (a node on it belongs to neither side).
 constexpr float kCutZ = 0.0032f;
 
-SceneSettings settingsFor(SolverType solver) {
-  SceneSettings s;
-  s.domain.lower = {-0.1f, -0.1f, -0.1f};
-  s.domain.upper = {0.1f, 0.1f, 0.1f};
-  s.dx = kDx;
-  s.gravity = {0.f, 0.f, 0.f};
-  s.solver = solver;
-  s.backend = Backend::Cpu;
-  return s;
-}
-
-ParticleObjectDesc block() {
-  ParticleObjectDesc d;
-  d.center = {0.f, 0.f, 0.f};
-  d.halfExtents = kBlockHalf;
-  d.material.youngsModulus = 2e4f;
-  d.material.poissonRatio = 0.3f;
-  d.material.density = 1000.f;
-  return d;
-}
+SceneSettings settingsFor(SolverType solver) { return test::cuttingSettings(solver); }
+ParticleObjectDesc block() { return test::cutBlock(); }
 
 /// A blade in the plane z = kCutZ, its edge along x at height `edgeY`, reaching up to the
 /// spine 10 cm above it (it stays above the block), moving with `velocity`.
@@ -155,27 +137,9 @@ TEST(CutSideTest, NothingIsRecordedPastTheEdgeOrAtTheSpine) {
   }
 }
 
-// A curved blade: part of a cylinder of radius kArcRadius about the vertical axis through
-// (0, ., kArcCentreZ), from angle -50 to +50 degrees (x = R sin a, z = zc + R cos a), its
-// edge at y = 0 and its spine 10 cm above. Through the block it bows 1.4 cm: z = 5 mm at
-// x = 0, -8.8 mm at the block's sides.
-constexpr float kArcRadius = 0.065f, kArcCentreZ = -0.06f;
-MeshSlicerDesc arcBlade(float edgeY, Vec3f velocity = {0.f, 0.f, 0.f}) {
-  MeshSlicerDesc d;
-  const int n = 24;
-  for (int i = 0; i <= n; ++i) {
-    const float a = (-50.f + 100.f * i / n) * 3.14159265f / 180.f;
-    for (float y : {0.f, 0.1f}) d.blade.vertices.push_back({kArcRadius * std::sin(a), y, kArcCentreZ + kArcRadius * std::cos(a)});
-  }
-  for (uint32_t i = 0; i < (uint32_t)n; ++i) {
-    const uint32_t a = 2 * i, b = 2 * i + 1, c = 2 * i + 2, e = 2 * i + 3;
-    for (uint32_t v : {a, c, b, b, c, e}) d.blade.indices.push_back(v);
-  }
-  d.spineRadius = 0.f;
-  d.pose.position = {0.f, edgeY, 0.f};
-  d.linearVelocity = velocity;
-  return d;
-}
+using test::arcBlade;
+using test::kArcCentreZ;
+using test::kArcRadius;
 /// Distance of x from the arc's cylinder, outside positive.
 float arcSide(Vec3f x) { return std::hypot(x.x, x.z - kArcCentreZ) - kArcRadius; }
 

@@ -69,7 +69,9 @@ constexpr float kNoBlade = 1e30f;
 /// the mesh's boundary (past an edge or end of the blade) kNoBlade. Throws InvalidArgument
 /// for an empty mesh, bad indices, a non-positive cell size, or a mesh whose triangles are
 /// not consistently oriented (or share an edge among more than two); a cell size too fine
-/// is named as what it is, MeshSlicerDesc.sampleSpacing.
+/// is named as what it is, MeshSlicerDesc.sampleSpacing. Its values hold a second channel
+/// after the first dims[0] dims[1] dims[2]: the distance to the mesh's outline (the edges
+/// of one triangle), where the blade opens the material it cuts.
 SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, float reach);
 
 }  // namespace mpm

@@ -337,6 +337,14 @@ SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, floa
   for (uint32_t index : mesh.indices) bounds.grow(toDouble(mesh.vertices[index]));
   SignedDistanceGrid grid = gridAround(bounds, cellSize, (int)std::ceil(reach / cellSize) + 1, field);
   const Vec3d lower = toDouble(grid.lower);
+  // the second channel: the distance to the blade's outline (its edges of one face), where
+  // the material it opens is (curvedCuttingResistance)
+  std::vector<std::pair<Vec3d, Vec3d>> outline;
+  for (const auto& e : edgeFaces)
+    if (e.second.size() == 1)
+      outline.push_back({toDouble(mesh.vertices[e.first.first]), toDouble(mesh.vertices[e.first.second])});
+  const size_t n = grid.values.size();
+  grid.values.resize(2 * n);
 #if defined(_OPENMP)
 #pragma omp parallel for schedule(dynamic, 1)
 #endif
@@ -371,8 +379,17 @@ SignedDistanceGrid buildBladeGrid(const TriangleMesh& mesh, float cellSize, floa
           normal = vertexNormal[v];
         }
         const double side = dot(p - bestPoint, normal) >= 0 ? 1.0 : -1.0;
-        grid.values[((size_t)i * grid.dims[1] + j) * grid.dims[2] + k] =
-            boundary ? kNoBlade : (float)(side * std::sqrt(best));
+        const size_t at = ((size_t)i * grid.dims[1] + j) * grid.dims[2] + k;
+        grid.values[at] = boundary ? kNoBlade : (float)(side * std::sqrt(best));
+        double edge = std::numeric_limits<double>::infinity();
+        for (const auto& e : outline) {
+          const Vec3d ab = e.second - e.first;
+          const double len2 = dot(ab, ab);
+          const double t = len2 > 0 ? std::clamp(dot(p - e.first, ab) / len2, 0.0, 1.0) : 0.0;
+          const Vec3d d = p - (e.first + t * ab);
+          edge = std::min(edge, dot(d, d));
+        }
+        grid.values[n + at] = (float)std::sqrt(edge);
       }
   return grid;
 }

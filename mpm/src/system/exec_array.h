@@ -1,8 +1,11 @@
 #pragma once
-// ExecArray<T, Exec>: an owned array in an execution backend's memory space.
+// ExecArray<T, Exec>: an owned array in an execution backend's memory space, and the
+// element-wise kernels any such array is filled with.
 #include <cstddef>
 #include <type_traits>
 #include <utility>
+
+#include "mpm/math.h"
 
 namespace mpm {
 
@@ -44,6 +47,18 @@ class ExecArray {
   T* data_ = nullptr;
   size_t size_ = 0;
 };
+
+namespace kernels {
+
+/// data[i] = value.
+template <class T>
+struct Fill {
+  T* data;
+  T value;
+  MPM_HD void operator()(size_t i) const { data[i] = value; }
+};
+
+}  // namespace kernels
 
 template <class Exec, class = void>
 struct HasThreadCount : std::false_type {};

@@ -20,20 +20,11 @@
 #include "system/exec_array.h"
 #include "system/shape_set.h"
 #include "system/sim_backend.h"
-#include "tools/needle.h"
-#include "transfer/cut.h"
+#include "tools/cutting_stage.h"
 
 namespace mpm {
 
 namespace kernels {
-
-/// data[i] = value.
-template <class T>
-struct Fill {
-  T* data;
-  T value;
-  MPM_HD void operator()(size_t i) const { data[i] = value; }
-};
 
 /// out[i] = in[order[i]]: applies a sort permutation to one field.
 template <class T>
@@ -42,70 +33,6 @@ struct Gather {
   const T* in;
   const uint32_t* order;
   MPM_HD void operator()(size_t i) const { out[i] = in[order[i]]; }
-};
-
-/// A part RecordCuts visits (a blade, a curved blade, a needle's tip inside the material)
-/// and its slot among the resisting parts (BladeImpulse), -1 for a curved blade: the
-/// other parts (a thread's segments, the ground) cut nothing, and a suturing scene's
-/// particles had tested every one of them each substep.
-struct Cutter {
-  int part;
-  int blade;
-};
-
-/// Records on every particle beside a blade the cut it lies in, and with `impulses`
-/// (materials with toughness) exchanges the resistance to cutting over the substep between
-/// the particle and each blade: the blade's share summed per particle and blade in
-/// `impulses`, the particle's in `push`, which P2G hands to the grid (transfer/cut.h).
-struct RecordCuts {
-  ParticleView P;
-  const PartView* parts;
-  const Cutter* cutters;  ///< the parts that cut or resist, in part order
-  int nCutters;
-  const BodyView* bodies;
-  const MaterialParams* materials;
-  BladeImpulse* impulses;  ///< [blade * P.count + particle]; null: no toughness in the scene
-  Vec3f* push;             ///< [particle], with `impulses`
-  GridGeometry geo;
-  float dt;
-  MPM_HD void operator()(size_t i) const {
-    const float dx = geo.dx;
-    if (push) push[i] = Vec3f{0.f, 0.f, 0.f};
-    for (int c = 0; c < nCutters; ++c) {
-      const PartView& part = parts[cutters[c].part];
-      const int blade = cutters[c].blade;
-      if (part.type == kPartCurvedBlade && part.mayTouch(P.x[i], P.x[i]))
-        recordCurvedCut(P.cut[i], P.x[i], part, geo);
-      if (part.type == kPartTipInside) {
-        // the material's presence ahead of the tip is counted without toughness too
-        const float gc = materials[P.object[i]].toughness;
-        if (impulses && part.mayTouch(P.x[i], P.x[i])) {
-          BladeImpulse& J = impulses[(size_t)blade * P.count + i];
-          float presence;
-          const Vec3f f = needleTipResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc,
-                                              dx, presence);
-          push[i] -= dt * f;
-          J.linear += dt * f;
-          J.angular += dt * cross(P.x[i] - bodies[part.body].com, f);
-          J.presence += dt * presence;
-        }
-        continue;
-      }
-      if (part.type != kPartBlade) continue;
-      if (part.mayTouch(P.x[i], P.x[i])) {
-        recordCut(P.cut[i], P.x[i], part, dx);
-        const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
-        if (gc > 0.f) {
-          const Vec3f f =
-              cuttingResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc, dx);
-          push[i] -= dt * f;
-          BladeImpulse& J = impulses[(size_t)blade * P.count + i];
-          J.linear += dt * f;
-          J.angular += dt * cross(P.x[i] - bodies[part.body].com, f);
-        }
-      }
-    }
-  }
 };
 
 }  // namespace kernels
@@ -136,15 +63,13 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
  public:
   template <class... Args>
   ParticleGridSystem(const GridGeometry& geo, Args&&... execArgs)
-      : ExecOwner<Exec>(std::forward<Args>(execArgs)...), ShapeBackend<Exec>(this->exec_), geo_(geo), bins_(exec_, geo) {
+      : ExecOwner<Exec>(std::forward<Args>(execArgs)...), ShapeBackend<Exec>(this->exec_), geo_(geo), bins_(exec_, geo),
+        cutting_(exec_) {
 #define MPM_BIND(type, name) \
   name##_.bind(&exec_);      \
   name##Saved_.bind(&exec_);
     MPM_PARTICLE_FIELDS(MPM_BIND)
 #undef MPM_BIND
-    bladeImpulses_.bind(&exec_);
-    cutters_.bind(&exec_);
-    push_.bind(&exec_);
     materials_.bind(&exec_);
   }
 
@@ -268,69 +193,23 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   void importState(const BackendState& in) override {
     clear();
     append(in.particles);
-    everCut_ = false;
-    for (const CutPlane& c : in.particles.cut) everCut_ = everCut_ || isCut(c);
+    cutting_.particlesReplaced(in.particles.cut);
   }
 
   void setShapes(const std::vector<BodyView>& bodies, const std::vector<PartView>& parts) override {
     ShapeBackend<Exec>::setShapes(bodies, parts);
-    bladeBodies_.clear();
-    std::vector<kernels::Cutter> cutters;
-    blades_ = tips_ = false;
-    for (size_t i = 0; i < parts.size(); ++i) {
-      const PartView& p = parts[i];
-      // the resistance to cutting (quad blades) and to a needle's tip
-      if (p.type == kPartBlade || p.type == kPartTipInside) {
-        cutters.push_back({(int)i, (int)bladeBodies_.size()});
-        bladeBodies_.push_back(p.body);
-      } else if (p.type == kPartCurvedBlade) {
-        cutters.push_back({(int)i, -1});
-      }
-      blades_ = blades_ || isBlade(p.type);
-      tips_ = tips_ || p.type == kPartTipInside;
-    }
-    cutters_.resizeDiscard(cutters.size());
-    exec_.copyToDevice(cutters_.data(), cutters.data(), cutters.size() * sizeof(kernels::Cutter));
-    everCut_ = everCut_ || blades_;
-    // the resistance to cutting and to needles' tips, per particle and blade, summed over
-    // the advance
-    const size_t n = toughness_ || tips_ ? bladeBodies_.size() * count_ : 0;
-    bladeImpulses_.resizeDiscard(n);
-    push_.resizeDiscard(n ? count_ : 0);
-    exec_.forEach(n, kernels::Fill<BladeImpulse>{bladeImpulses_.data(), BladeImpulse{}});
+    cutting_.setParts(parts, count_);
   }
 
   /// The shapes' impulses, the slicers' faces with the resistance to cutting added.
   std::vector<ContactSums> takeImpulses() override {
     std::vector<ContactSums> out = ShapeBackend<Exec>::takeImpulses();
-    if (bladeImpulses_.size() == 0) return out;
-    std::vector<BladeImpulse>& all = bladeImpulsesHost_;  // kept: a suturing scene takes them every tick
-    all.resize(bladeImpulses_.size());
-    exec_.copyToHost(all.data(), bladeImpulses_.data(), all.size() * sizeof(BladeImpulse));
-    for (size_t b = 0; b < bladeBodies_.size(); ++b) {
-      double sum[7] = {0, 0, 0, 0, 0, 0, 0};
-      for (size_t i = 0; i < count_; ++i) {
-        for (int a = 0; a < 3; ++a) {
-          sum[a] += all[b * count_ + i].linear[a];
-          sum[3 + a] += all[b * count_ + i].angular[a];
-        }
-        sum[6] += all[b * count_ + i].presence;
-      }
-      ContactSums& c = out[bladeBodies_[b]];
-      for (int a = 0; a < 3; ++a) {
-        c.impulse[a] += (float)sum[a];
-        c.angular[a] += (float)sum[3 + a];
-      }
-      // a needle's tip inside has no grid contact: its mass sum carries the time integral
-      // of the material's presence ahead of it instead (needleTipResistance)
-      c.mass += (float)sum[6];
-    }
+    cutting_.addImpulses(out, count_);
     return out;  // setShapes, before every advance, zeroes them again
   }
 
   void setMaterials(const std::vector<MaterialParams>& m) override {
-    toughness_ = false;
-    for (const MaterialParams& p : m) toughness_ = toughness_ || p.toughness > 0.f;
+    cutting_.setMaterials(m);
     materials_.resizeDiscard(m.size());
     exec_.copyToDevice(materials_.data(), m.data(), m.size() * sizeof(MaterialParams));
   }
@@ -357,7 +236,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
 
   /// Whether some particle may carry a cut: a blade is in the scene, or was since the
   /// particles were last replaced. Until then the transfers do not read the cut field.
-  bool cuts() const { return everCut_; }
+  bool cuts() const { return cutting_.cuts(); }
   /// The impulse the resistance to cutting (and to a needle's tip) gives each particle
   /// this substep, which P2G adds to the grid as a force (so standard MPM's FLIP sees it as
   /// the grid's change, not a kick the particle keeps); null when the shapes of this
@@ -365,21 +244,14 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   /// solvers take it before recordCuts fills it (taken as "filled by the last recordCuts",
   /// a substep whose last one had none in reach lost its push while the blade took its
   /// share: 3 % of an insertion's momentum went missing).
-  const Vec3f* cuttingPush() const { return push_.size() > 0 ? push_.data() : nullptr; }
+  const Vec3f* cuttingPush() const { return cutting_.push(); }
   /// Records the cuts of the blades in reach on the particles beside them (before P2G,
   /// after placeShapes), and the resistances of this substep. Nothing without a blade or a
   /// needle's tip in the scene; with them out of reach, the push is zero.
   void recordCuts(float dt) {
-    if (!(blades_ || tips_)) return;
+    if (!cutting_.active()) return;
     const auto t0 = Clock::now();
-    const bool resisting = bladeImpulses_.size() > 0;
-    if (partCount() == 0) {
-      if (resisting) exec_.forEach(count_, kernels::Fill<Vec3f>{push_.data(), Vec3f{0.f, 0.f, 0.f}});
-    } else {
-      exec_.forEach(count_, kernels::RecordCuts{view(), parts(), cutters_.data(), (int)cutters_.size(), shapes_.bodies(), materials_.data(),
-                                                resisting ? bladeImpulses_.data() : nullptr,
-                                                resisting ? push_.data() : nullptr, geo_, dt});
-    }
+    cutting_.record(view(), parts(), partCount(), shapes_.bodies(), materials_.data(), geo_, dt);
     timings.contact += seconds(t0);
   }
 
@@ -500,7 +372,7 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   }
   size_t activeBlocks() const override { return bins_.gridView().activeCount; }
   size_t memoryBytes() const override {
-    size_t b = materials_.bytes() + bladeImpulses_.bytes() + bladeImpulsesHost_.capacity() * sizeof(BladeImpulse) + cutters_.bytes() + push_.bytes() + bins_.memoryBytes() + shapes_.memoryBytes();
+    size_t b = materials_.bytes() + cutting_.memoryBytes() + bins_.memoryBytes() + shapes_.memoryBytes();
 #define MPM_BYTES(type, name) b += name##_.bytes() + name##Saved_.bytes();
     MPM_PARTICLE_FIELDS(MPM_BYTES)
 #undef MPM_BYTES
@@ -531,19 +403,11 @@ class ParticleGridSystem final : private ExecOwner<Exec>, public ShapeBackend<Ex
   bool centroidsKept_ = false;  ///< the last scatter kept the centroids (MirrorFold)
   bool binned_ = false;         ///< bins_ holds since the sort (KeepsBinning): binParticles keeps it
   bool modelKept_ = false;      ///< saveStateAndSort moved the particles and kept the model fields too
-  bool blades_ = false;          ///< a slicer's blade is among the parts
-  bool everCut_ = false;         ///< cuts(): a blade has been in the scene since the particles were set
-  bool toughness_ = false;       ///< some material resists cutting (MaterialParams::toughness)
-  std::vector<int> bladeBodies_;  ///< the body of each blade part, in part order
-  ExecArray<kernels::Cutter, Exec> cutters_;  ///< the parts recordCuts visits (setShapes)
-  ExecArray<BladeImpulse, Exec> bladeImpulses_;
-  std::vector<BladeImpulse> bladeImpulsesHost_;  ///< takeImpulses' copy
-  ExecArray<Vec3f, Exec> push_;  ///< cuttingPush()
-  bool tips_ = false;            ///< a needle's tip is inside the material (kPartTipInside)
 #define MPM_MEMBER(type, name) ExecArray<type, Exec> name##_, name##Saved_;  // the state, its copy (saveStateAndSort)
   MPM_PARTICLE_FIELDS(MPM_MEMBER)
 #undef MPM_MEMBER
   ExecArray<MaterialParams, Exec> materials_;
+  CuttingStage<Exec> cutting_;  ///< the tools' stage (recordCuts)
 };
 
 }  // namespace mpm

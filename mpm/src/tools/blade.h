@@ -86,21 +86,21 @@ constexpr float kCuttingSpeedScale = 1e-3f;
 /// blade part `blade` of body `body`: -G_c l t for each cutting boundary it lies just ahead
 /// of (the edge, outward -y, and the two ends of the blade, outward +-x, up to the spine's
 /// reach), l its share of the engaged length and t the boundary's outward direction, while
-/// the boundary moves outward. The force on the blade [N]; the particle takes the opposite
-/// (opening the cut pushes the material ahead of the edge).
+/// the boundary moves outward relative to the particle. The force on the blade [N]; the
+/// particle takes the opposite (opening the cut pushes the material ahead of the edge).
 ///
-/// The boundary's speed is the blade's own, not relative to the particle: a particle's
-/// velocity is noisy at this scale (the reaction kicks the few particles ahead of the edge,
-/// and with standard MPM's FLIP they keep the kick): measured relative to it, the switch
-/// above held standard MPM's force at 32-55 % of G_c d. So material that moves along with
-/// the blade is still charged as if it were cut.
-MPM_HD Vec3f cuttingResistance(const PartView& blade, const BodyView& body, Vec3f x, float volume, float toughness,
-                               float dx) {
+/// The boundary's speed is the blade's relative to the particle's velocity `v`, so material
+/// carried along with the blade (a blade held in its own cut, moved with the tissue) opens
+/// nothing. The particle's share goes to the grid as a force in P2G (cuttingPush), so
+/// standard MPM's FLIP particles do not keep the kick it gives them: when they did, the
+/// relative speed flickered and held standard MPM's force at 32-55 % of G_c d.
+MPM_HD Vec3f cuttingResistance(const PartView& blade, const BodyView& body, Vec3f x, Vec3f v, float volume,
+                               float toughness, float dx) {
   const Vec3f q = transpose(blade.rotation) * (x - blade.position);
   const float z = q.z - 0.5f * (blade.faceLower.z + blade.faceUpper.z);
   const float r = kCuttingReach * dx, r2 = r * r;
   const float share = 2.f * volume / (3.14159265f * r2 / 3.f);
-  const Vec3f u = body.velocityAt(x);  // the blade's motion
+  const Vec3f u = body.velocityAt(x) - v;  // the blade's motion relative to the material
   const float lo = blade.faceLower.y, top = blade.faceUpper.y - blade.radius;
   Vec3f f{0.f, 0.f, 0.f};
   // a boundary at distance `ahead` behind the particle (> 0: the particle is on its uncut
@@ -118,6 +118,40 @@ MPM_HD Vec3f cuttingResistance(const PartView& blade, const BodyView& body, Vec3
   boundary(q.x - blade.faceUpper.x, q.y, lo, top, Vec3f{1.f, 0.f, 0.f});
   boundary(blade.faceLower.x - q.x, q.y, lo, top, Vec3f{-1.f, 0.f, 0.f});
   return f;
+}
+
+/// The resistance to cutting that a particle of current volume `volume` at x opposes to a
+/// curved blade `blade` (kPartCurvedBlade) of body `body`, as cuttingResistance does a quad
+/// blade's: the particle lies ahead of the blade's outline (no face beside it, within
+/// kCuttingReach dx of the outline, not within the spine's radius of its axis) while the
+/// outline moves toward it relative to the particle's velocity `v`. Its direction is the particle's from the outline, `out` (the
+/// sampled distance's gradient, the blade grid's second channel): off the blade's plane it
+/// leans out of it, so each particle adds (1 - rho^2 / r^2)^2 cos(phi) along the outline's
+/// outward normal, whose integral over the half disc ahead is r^2 / 3 (not pi r^2 / 6): the
+/// share is volume / (r^2 / 3) and the force G_c per unit length of outline in material.
+/// The leaning parts cancel between the two sides of the blade. The force on the blade [N].
+MPM_HD Vec3f curvedCuttingResistance(const PartView& blade, const BodyView& body, Vec3f x, Vec3f v, float volume,
+                                     float toughness, float dx) {
+  const Vec3f none{0.f, 0.f, 0.f};
+  const Vec3f p = transpose(blade.rotation) * (x - blade.position);
+  float sided;
+  Vec3f n;
+  if (blade.curvedBladeAt(p, sided, n)) return none;  // beside a face: behind the outline
+  const float r = kCuttingReach * dx, r2 = r * r;
+  Vec3f g;
+  const size_t channel = (size_t)blade.sdfDims[0] * blade.sdfDims[1] * blade.sdfDims[2];
+  const float rho = sdfGridSample(blade.sdfValues + channel, blade.sdfDims, blade.sdfLower, blade.sdfCell, p, g);
+  const float len = norm(g);
+  if (!(rho < r) || !(len > 1e-12f)) return none;
+  const Vec3f outLocal = (1.f / len) * g;
+  if (blade.radius > 0.f && segmentDistance(p - rho * outLocal, blade.faceLower, blade.faceUpper) < blade.radius)
+    return none;  // the spine's back edge opens nothing
+  const Vec3f out = blade.rotation * outLocal;
+  const float un = dot(body.velocityAt(x) - v, out);  // relative to the material, as cuttingResistance
+  if (un <= 0.f) return none;
+  const float q = 1.f - rho * rho / r2;
+  const float share = volume / (r2 / 3.f);
+  return (-toughness * share * q * q * fminf(un / kCuttingSpeedScale, 1.f)) * out;
 }
 
 }  // namespace mpm
