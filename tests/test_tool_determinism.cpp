@@ -52,6 +52,7 @@ ToolRun runToolScene(SolverType solver, int threads, int frames) {
   blade.width = 0.03f;
   blade.pose.position = {0.f, 0.025f, 0.012f};
   blade.linearVelocity = {0.f, -0.3f, 0.f};
+  blade.spineRadius = 0.5f * s.dx;  // a blunt back that reaches the block in the last frames
   const SlicerId slicer = scene.addSlicer(blade);
 
   ArcDesc needle;  // a quarter needle whose tip, pointing down, enters the block's top

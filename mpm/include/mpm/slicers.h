@@ -15,14 +15,18 @@ namespace mpm {
 
 /// A rectangular blade in its own frame: the cutting edge runs along local x from
 /// -halfLength to +halfLength at y = 0, the blade's faces are the plane z = 0 from the edge
-/// up to the spine at y = width, and the spine is a round bar of `spineRadius` along x at
-/// y = width. Everything the blade's faces pass between the edge and the spine is cut:
-/// the edge leads the blade into the material, but a side of the blade moving through
-/// material within the faces' extent cuts as well (only the spine is blunt).
+/// up to its back at y = width, and with `spineRadius` > 0 a blunt spine, a round bar of
+/// that radius along x at y = width, pushes what reaches it. Everything the blade's faces
+/// pass between the edge and the spine's radius is cut: the edge leads the blade into the
+/// material, but a side of the blade moving through material within the faces' extent cuts
+/// as well (only the spine is blunt).
 struct QuadSlicerDesc {
   float halfLength = 0.05f;   ///< [m] half the length of the cutting edge (local x)
   float width = 0.02f;        ///< [m] from the edge to the spine's axis (local y)
-  float spineRadius = 0.f;    ///< [m] the blunt back; 0: as thick as the faces' band
+  /// [m] the blunt back, in [0, width); 0: none (the faces end at y = width). A spine
+  /// thinner than 0.75 dx reaches the grid as 0.75 dx thick, and one pushed into material
+  /// the faces have not cut pushes it aside (a blade deeper than its width).
+  float spineRadius = 0.f;
   /// Half-thickness of the blade itself [m]; the grid sees it grown by half a cell on each
   /// face (the band the material is pushed out of: the gap a cut opens is about one cell).
   float halfThickness = 0.f;
