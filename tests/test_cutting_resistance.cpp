@@ -1,8 +1,8 @@
 // The resistance to cutting (Atkins, "The Science and Engineering of Cutting", 2009: a blade
 // opening a crack does work G_c per unit area it opens): a curved blade (MeshSlicerDesc)
 // pressed down through a block feels G_c times the length of its edge in material, as a
-// straight one does; and a blade carried along with the material, in a cut it already
-// made, opens nothing and feels no toughness. CPU backend (the kernels are the CUDA ones).
+// straight one does (Cutting.TheBladeFeelsTheToughnessTimesTheDepth). CPU backend (the
+// kernels are the CUDA ones).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -50,7 +50,7 @@ double curvedBladeForce(SolverType solver, float toughness) {
   // PB-MPM takes the whole frame as its substep here (its step follows the motion alone),
   // and its iterations do not carry the edge's load (0.75 N on each particle ahead of it at
   // G_c 200) through the block within 1/240 s: the particles ahead are thrown (2.5 m/s, the
-  // divergence check). Two substeps a frame carry it (+2.8 %).
+  // divergence check). Two substeps a frame carry it (+3.0 %).
   if (solver == SolverType::PbMpm) settings.substeps.fixedSubsteps = 2;
   Scene scene(settings);
   scene.addParticleObject(block(toughness));
@@ -81,38 +81,6 @@ TEST_P(CuttingResistance, ACurvedBladeFeelsTheToughnessTimesItsEdgeInMaterial) {
   const double none = curvedBladeForce(GetParam(), 0.f);
   std::printf("[cut] %s curved blade, G_c 0: %.4f N\n", test::solverName(GetParam()).c_str(), none);
   EXPECT_LT(std::fabs(none), 0.05 * expected) << "without toughness the blade cuts freely";
-}
-
-// A block carried at 5 cm/s with a straight blade standing in it (its edge 2 cm below the
-// top, its ends 2 cm inside the block's sides) moving with it: the blade cuts its slot in
-// the first substep and then opens nothing, since the material ahead of its leading end
-// moves as fast as the end. The force on the blade along the motion, averaged over 0.2 s,
-// is under 5 % of what the blade's own speed would charge (G_c times the 2 cm of its end
-// in material).
-TEST_P(CuttingResistance, ABladeCarriedWithTheMaterialOpensNothing) {
-  const float gc = 50.f, speed = 0.05f, depth = 0.02f;
-  Scene scene(settingsFor(GetParam()));
-  ParticleObjectDesc b = block(gc);
-  b.velocity = {speed, 0.f, 0.f};
-  scene.addParticleObject(b);
-  QuadSlicerDesc d;
-  d.halfLength = 0.02f;
-  d.width = 0.1f;  // the spine 8 cm above the block
-  d.pose.position = {0.f, kBlockHalf.y - depth, 0.0032f};  // off the node layers
-  d.linearVelocity = {speed, 0.f, 0.f};
-  const SlicerId s = scene.addSlicer(d);
-  const float frame = 1.f / 240.f;
-  double force = 0;
-  const int frames = 48;
-  for (int i = 0; i < frames; ++i) {
-    scene.step(frame);
-    force += scene.slicerImpulse(s).linear.x / frame;
-  }
-  force /= frames;
-  const double charged = gc * depth;
-  std::printf("[cut] %s blade carried with the block: %.4f N along its motion (its own speed would charge %.2f N)\n",
-              test::solverName(GetParam()).c_str(), force, charged);
-  EXPECT_LT(std::fabs(force), 0.05 * charged);
 }
 
 INSTANTIATE_TEST_SUITE_P(GridSolvers, CuttingResistance, test::allSolvers(), test::solverParamName());

@@ -50,7 +50,7 @@ struct RecordCuts {
         const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
         if (gc > 0.f)
           exchange(i, blade, part,
-                   curvedCuttingResistance(part, bodies[part.body], P.x[i], P.v[i], P.volume0[i] * determinant(P.F[i]), gc, dx));
+                   curvedCuttingResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc, dx));
         continue;
       }
       if (part.type == kPartTipInside) {
@@ -71,7 +71,7 @@ struct RecordCuts {
         const float gc = impulses ? materials[P.object[i]].toughness : 0.f;
         if (gc > 0.f)
           exchange(i, blade, part,
-                   cuttingResistance(part, bodies[part.body], P.x[i], P.v[i], P.volume0[i] * determinant(P.F[i]), gc, dx));
+                   cuttingResistance(part, bodies[part.body], P.x[i], P.volume0[i] * determinant(P.F[i]), gc, dx));
       }
     }
   }
