@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import mpm_bullet as mb
-from tissue_scenes import block, scene_with_block, settings
+from tissue_scenes import DX, block, scene_with_block, settings
 
 
 def raises_invalid(match_exact, call, *args, **kwargs):
@@ -190,8 +190,9 @@ def test_mesh_tissue_from_arrays_is_its_box():
 
 def test_slicers_and_curves():
     scene, obj = scene_with_block(gravity=[0, 0, 0])
-    blade = scene.add_quad_slicer(half_length=0.05, width=0.02, position=(0.013, 0.08, -0.007),
-                                  linear_velocity=(0, -0.5, 0))
+    # a blunt spine (none by default) that reaches the block's top within the step
+    blade = scene.add_quad_slicer(half_length=0.05, width=0.02, spine_radius=0.5 * DX,
+                                  position=(0.013, 0.08, -0.007), linear_velocity=(0, -0.5, 0))
     needle = scene.add_arc(radius=0.01, position=(0.1, 0.15, 0.0))
     thread = scene.add_line_segments(np.array([[-0.05, 0.15, 0], [0, 0.15, 0], [0.05, 0.15, 0]]))
     scene.step(1 / 60)
