@@ -111,7 +111,7 @@ class CuttingStage {
     blades_ = tips_ = false;
     for (size_t i = 0; i < parts.size(); ++i) {
       const PartView& p = parts[i];
-      // the resistance to cutting (quad blades) and to a needle's tip
+      // the resistance to cutting (quad and curved blades) and to a needle's tip
       if (p.type == kPartBlade || p.type == kPartCurvedBlade || p.type == kPartTipInside) {
         cutters.push_back({(int)i, (int)bladeBodies_.size()});
         bladeBodies_.push_back(p.body);
