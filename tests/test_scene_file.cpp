@@ -215,6 +215,8 @@ TEST(SceneFileErrors, ToolAndThreadErrorsAreRenamedToTheirKeys) {
             0u);
   EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"start": [0, 0.2, 0], "tick": 0}]})"),
             "threads[0].tick = 0.000000: must be finite and > 0");
+  EXPECT_EQ(loadError(std::string("{") + kDomain + R"(, "threads": [{"start": [0, 0.2, 0], "youngsModulus": -1}]})"),
+            "threads[0].youngsModulus = -1.000000: must be finite and >= 0 (0: a limp thread)");
   EXPECT_EQ(loadError(std::string("{") + kDomain +
                       R"(, "threads": [{"start": [0, 0.2, 0], "coupling": {"dynamic": false, "addedMass": true}}]})"),
             "threads[0].coupling.addedMass = true: needs dynamic = true (the tissue's push on the links)");

@@ -269,6 +269,8 @@ TEST(SutureThread, ValidationNamesTheField) {
       {[&](auto& d) { d.start = btVector3(nan, 0, 0); }, "SutureThreadDesc.start"},
       {[](auto& d) { d.friction = -1.f; }, "SutureThreadDesc.friction"},
       {[](auto& d) { d.maxTension = -1.f; }, "SutureThreadDesc.maxTension"},
+      {[](auto& d) { d.youngsModulus = -1.f; }, "SutureThreadDesc.youngsModulus"},
+      {[&](auto& d) { d.youngsModulus = nan; }, "SutureThreadDesc.youngsModulus"},
       {[&](auto& d) { d.maxTension = nan; }, "SutureThreadDesc.maxTension"},
       {[](auto& d) { d.tick = 0.f; }, "SutureThreadDesc.tick"},
   };

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "mpm/error.h"
+#include "thread_bending.h"
 
 namespace mpm::bullet {
 
@@ -41,6 +42,9 @@ void validate(const btMultiBodyDynamicsWorld* world, const SutureThreadDesc& d) 
     throw InvalidArgument("SutureThreadDesc.linearDensity", std::to_string(d.linearDensity), "must be finite and > 0");
   if (!(d.damping >= 0.f) || !std::isfinite(d.damping))
     throw InvalidArgument("SutureThreadDesc.damping", std::to_string(d.damping), "must be finite and >= 0");
+  if (!(d.youngsModulus >= 0.f) || !std::isfinite(d.youngsModulus))
+    throw InvalidArgument("SutureThreadDesc.youngsModulus", std::to_string(d.youngsModulus),
+                          "must be finite and >= 0 (0: a limp thread)");
   if (!finite(d.start)) throw InvalidArgument("SutureThreadDesc.start", text(d.start), "must be finite");
   if (!finite(d.direction) || !(d.direction.length2() > 1e-12f))
     throw InvalidArgument("SutureThreadDesc.direction", text(d.direction), "must be finite and non-zero");
@@ -130,6 +134,9 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
     else
       mb->getLink(link).m_collider = c;
   }
+  // bending: a spring of EI / L at each joint (suture.h, ThreadBending)
+  const btScalar EI = d.youngsModulus * (btScalar)M_PI * r * r * r * r / 4;
+  if (EI > 0) world->addMultiBodyConstraint(new ThreadBending(mb, EI / L));
   btAlignedObjectArray<btQuaternion> scratchRot;
   btAlignedObjectArray<btVector3> scratchPos;
   mb->forwardKinematics(scratchRot, scratchPos);

@@ -39,6 +39,14 @@ struct SutureThreadDesc {
   /// velocity) made a pinned, swinging 30-segment thread gain energy (measured: 15 times
   /// M g length / 2 within 2 s), so neither is used.
   float damping = 0.f;
+  /// [Pa] Young's modulus of the suture's material: the thread resists bending with the
+  /// flexural rigidity EI = E pi r^4 / 4 (r: `radius`), each joint with the moment EI / L
+  /// times its turn (L the segment length), so the chain bends as an Euler-Bernoulli rod
+  /// (a cantilever's tip deflects F l^3 / (3 EI) as the segments get short). Polypropylene
+  /// (Prolene) 1.5-3 GPa, nylon 2-4 GPa; a 3-0 suture's diameter is 0.2-0.25 mm.
+  /// Solved implicitly in Bullet's constraint solver (ThreadBending), stable at any tick
+  /// and with no raise of the segments' moments. 0: a limp thread. >= 0.
+  float youngsModulus = 0.f;
   btVector3 start{0, 0, 0};       ///< [m] the first point (base segment's outer end)
   btVector3 direction{1, 0, 0};   ///< from `start` toward the last point; normalised, non-zero
   /// The first segment fixed in the world where it is built (a knot or an anchor): Bullet's

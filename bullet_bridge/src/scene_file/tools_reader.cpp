@@ -56,6 +56,7 @@ void readThread(Node n, LoadedScene::Impl& s, size_t index) {
   n.read("radius", d.radius);
   n.read("linearDensity", d.linearDensity);
   n.read("damping", d.damping);
+  n.read("youngsModulus", d.youngsModulus);
   Vec3f v;
   const bool hasStart = n.read("start", v);
   d.start = bt(v);
