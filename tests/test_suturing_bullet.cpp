@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <string>
@@ -42,6 +43,17 @@ using test::ThreadWatch;
 using test::threadTissueSettings;
 using test::tissueBlock;
 
+/// The needle pass's patch of the suturing scene (NeedlePass): smaller blocks, gravity off,
+/// the turn in 2.45 s, one tick a frame.
+constexpr const char* kNeedlePass = R"({
+    "settings": {"domain": {"lower": [-0.04, -0.02, -0.03], "upper": [0.04, 0.05, 0.03]}, "gravity": [0, 0, 0]},
+    "objects": [{"name": "left", "center": [-0.013, 0.01, 0], "halfExtents": [0.01, 0.01, 0.00625]},
+                {"name": "right", "center": [0.013, 0.01, 0], "halfExtents": [0.01, 0.01, 0.00625]}],
+    "bodies": [{"name": "needle", "motion": {"keyframes": [
+      {"time": 0.05, "position": [0, 0.026, 0], "rotation": {"axis": [0, 0, 1], "angle": 0}},
+      {"time": 2.5, "position": [0, 0.026, 0], "rotation": {"axis": [0, 0, 1], "angle": 6.3704517697793035}}]}}],
+    "output": {"frameTime": 1.0416666666666667e-4}})";
+
 // (e) The pass: the suturing scene (assets/scenes/suturing.json, patched: the blocks of
 // PullingTheStitch, 1.25 cm deep, in its grid, gravity off, and a faster turn; the needle,
 // its driver, the thread and its path are the file's): a half-circle needle of 12 mm (a 100 g body driven by
@@ -56,14 +68,7 @@ using test::tissueBlock;
 // the only thing that moves them); the needle and thread cut nothing: each block is one
 // piece.
 TEST(NeedlePass, DrawsTheThreadThroughBothBlocks) {
-  auto loaded = bullet::LoadedScene::fromFile(test::assetPath("scenes/suturing.json"), R"({
-    "settings": {"domain": {"lower": [-0.04, -0.02, -0.03], "upper": [0.04, 0.05, 0.03]}, "gravity": [0, 0, 0]},
-    "objects": [{"name": "left", "center": [-0.013, 0.01, 0], "halfExtents": [0.01, 0.01, 0.00625]},
-                {"name": "right", "center": [0.013, 0.01, 0], "halfExtents": [0.01, 0.01, 0.00625]}],
-    "bodies": [{"name": "needle", "motion": {"keyframes": [
-      {"time": 0.05, "position": [0, 0.026, 0], "rotation": {"axis": [0, 0, 1], "angle": 0}},
-      {"time": 2.5, "position": [0, 0.026, 0], "rotation": {"axis": [0, 0, 1], "angle": 6.3704517697793035}}]}}],
-    "output": {"frameTime": 1.0416666666666667e-4}})");
+  auto loaded = bullet::LoadedScene::fromFile(test::assetPath("scenes/suturing.json"), kNeedlePass);
   Scene& scene = loaded->scene();
   const SceneSettings& settings = scene.settings();
   const ParticleObjectId left = loaded->object("left"), right = loaded->object("right");
@@ -210,30 +215,64 @@ TEST(NeedleCoupling, BlockGainsWhatTheNeedleLoses) {
   EXPECT_FALSE(scene.isValid(id));
 }
 
-// Checkpoints of a coupler with needles or threads are refused, naming why.
-TEST(NeedleCoupling, CheckpointsAreRefusedWithCurves) {
-  BulletWorld bw(WorldType::Discrete, 9.81f);
-  SceneSettings settings;
-  settings.domain.lower = {-0.04f, -0.02f, -0.02f};
-  settings.domain.upper = {0.04f, 0.05f, 0.02f};
-  settings.dx = 0.005f;
-  settings.backend = Backend::Cpu;
-  Scene scene(settings);
-  btRigidBody* body = bw.addBody(new btSphereShape(0.001f), 0.005f,
-                                 btTransform(btQuaternion::getIdentity(), btVector3(0, 0.03f, 0)));
-  bullet::Coupler coupler(bw.world.get(), scene);
-  const std::vector<uint8_t> before = coupler.saveToMemory();  // no curves yet: fine
-  coupler.addNeedle(body, ArcDesc{});
-  try {
-    coupler.saveToMemory();
-    ADD_FAILURE() << "saved a coupler with a needle";
-  } catch (const CheckpointError& e) {
-    EXPECT_EQ(e.reason(), CheckpointError::Reason::Unsupported);
-    EXPECT_NE(std::string(e.what()).find("needles or threads"), std::string::npos) << e.what();
+/// What a resumed stitch must reproduce: the tissue's positions and velocities, the needle
+/// body's pose and velocities, every segment's transform and the thread's point velocities.
+std::vector<float> stitchState(bullet::LoadedScene& loaded) {
+  std::vector<float> out;
+  auto add = [&](const btVector3& v) { out.insert(out.end(), {(float)v.x(), (float)v.y(), (float)v.z()}); };
+  for (const char* name : {"left", "right"}) {
+    std::vector<Vec3f> x, v;
+    loaded.scene().readPositions(loaded.object(name), x);
+    loaded.scene().readVelocities(loaded.object(name), v);
+    for (const Vec3f& p : x) out.insert(out.end(), {p.x, p.y, p.z});
+    for (const Vec3f& p : v) out.insert(out.end(), {p.x, p.y, p.z});
   }
-  EXPECT_THROW(coupler.loadFromMemory(before), CheckpointError);
-  coupler.remove(body);
-  EXPECT_NO_THROW(coupler.saveToMemory());
+  const btRigidBody* needle = loaded.body("needle");
+  for (int r = 0; r < 3; ++r) add(needle->getWorldTransform().getBasis()[r]);
+  add(needle->getWorldTransform().getOrigin());
+  add(needle->getLinearVelocity());
+  add(needle->getAngularVelocity());
+  const btMultiBody* thread = loaded.thread("thread");
+  for (int s = 0; s <= thread->getNumLinks(); ++s) {
+    const btTransform t = bullet::threadSegmentTransform(thread, s);
+    for (int r = 0; r < 3; ++r) add(t.getBasis()[r]);
+    add(t.getOrigin());
+  }
+  for (const btVector3& v : bullet::threadPointVelocities(thread)) add(v);
+  return out;
+}
+
+// A stitch saved half way, the needle in the tissue and the thread drawn in behind it
+// (the needle pass at 1.6 s), loaded into a fresh world built from the same file, steps
+// on bit for bit as the run that was saved: the tissue, the needle and every link after
+// 240 more ticks. Before, a coupler with needles or threads refused checkpoints.
+TEST(StitchCheckpoint, ResumesBitForBitInAFreshWorld) {
+  auto saved = bullet::LoadedScene::fromFile(test::assetPath("scenes/suturing.json"), kNeedlePass);
+  const int before = (int)std::lround(1.6 / saved->tick()), after = 240;
+  for (int k = 0; k < before; ++k) saved->advanceFrame();
+  const CurveId needle = saved->coupler().needleOf(saved->body("needle"));
+  int inside = 0;  // thread segment midpoints in the left block
+  const std::vector<btVector3> p = bullet::threadPoints(saved->thread("thread"));
+  for (size_t s = 0; s + 1 < p.size(); ++s) {
+    const btVector3 m = 0.5f * (p[s] + p[s + 1]);
+    inside += m.y() > 0.f && m.y() < 0.02f && std::fabs(m.z()) < 0.00625f && m.x() > -0.023f && m.x() < -0.003f;
+  }
+  std::printf("stitch saved at %.3f s: the tip inside %d, thread segments in block 1: %d\n", saved->scene().time(),
+              (int)saved->scene().tipInside(needle), inside);
+  ASSERT_GE(inside, 1) << "the thread is not drawn into the tissue yet: not a stitch half way";
+  const std::string path = ::testing::TempDir() + "mid_stitch.ckpt";
+  saved->saveCheckpoint(path);
+  for (int k = 0; k < after; ++k) saved->advanceFrame();
+  auto fresh = bullet::LoadedScene::fromFile(test::assetPath("scenes/suturing.json"), kNeedlePass);
+  fresh->loadCheckpoint(path);
+  for (int k = 0; k < after; ++k) fresh->advanceFrame();
+  std::remove(path.c_str());
+  EXPECT_EQ(fresh->scene().time(), saved->scene().time());
+  const std::vector<float> a = stitchState(*saved), b = stitchState(*fresh);
+  ASSERT_EQ(a.size(), b.size());
+  size_t differ = 0;
+  for (size_t i = 0; i < a.size(); ++i) differ += std::memcmp(&a[i], &b[i], sizeof(float)) != 0;
+  EXPECT_EQ(differ, 0u) << "of " << a.size() << " values";
 }
 
 }  // namespace

@@ -58,6 +58,35 @@ void writeMultiBody(checkpoint::Writer& w, const btMultiBody& mb) {
   }
 }
 
+/// A rigid body's saved pose and velocities.
+struct RigidState {
+  btTransform t;
+  btVector3 v, w;
+
+  static void write(checkpoint::Writer& w, const btRigidBody& b) {
+    put(w, b.getWorldTransform());
+    put(w, b.getLinearVelocity());
+    put(w, b.getAngularVelocity());
+  }
+  void read(checkpoint::Reader& r) {
+    t = getTransform(r, "a rigid body's transform");
+    v = getVector(r, "a rigid body's velocity");
+    w = getVector(r, "a rigid body's angular velocity");
+  }
+  void apply(btRigidBody& b, bool dynamic) const {
+    b.setWorldTransform(t);
+    b.updateInertiaTensor();  // the world inertia follows the orientation only when Bullet integrates
+    b.setInterpolationWorldTransform(t);
+    if (b.getMotionState()) b.getMotionState()->setWorldTransform(t);
+    b.setLinearVelocity(v);
+    b.setAngularVelocity(w);
+    b.setInterpolationLinearVelocity(v);
+    b.setInterpolationAngularVelocity(w);
+    b.clearForces();
+    if (dynamic) b.activate(true);
+  }
+};
+
 /// A multibody's saved state, read and checked against `mb` before anything is set.
 struct MultiBodyState {
   btVector3 basePos, baseVel, baseOmega;
@@ -104,15 +133,7 @@ struct MultiBodyState {
 
 }  // namespace
 
-void Coupler::refuseCurvesInCheckpoints() const {
-  if (!needles_.empty() || !threads_.empty())
-    throw CheckpointError(CheckpointError::Reason::Unsupported,
-                          "a coupler with needles or threads (addNeedle, addThread) cannot be saved or loaded yet: "
-                          "their curves' state is not in checkpoints");
-}
-
 std::vector<uint8_t> Coupler::bodiesAttachment() const {
-  refuseCurvesInCheckpoints();
   if (intervalTick_ != 0)
     throw CheckpointError(CheckpointError::Reason::Unsupported,
                           "the tissue interval is open: the scene is " + std::to_string(tissueInterval_ - intervalTick_) +
@@ -124,9 +145,7 @@ std::vector<uint8_t> Coupler::bodiesAttachment() const {
   for (const Link& l : links_) {
     if (l.rigid) {
       w.put(BodyKind::Rigid);
-      put(w, l.rigid->getWorldTransform());
-      put(w, l.rigid->getLinearVelocity());
-      put(w, l.rigid->getAngularVelocity());
+      RigidState::write(w, *l.rigid);
     } else if (l.multi) {
       const bool again = std::find(written.begin(), written.end(), l.multi) != written.end();
       w.put(again ? BodyKind::MultiBodyAgain : BodyKind::MultiBody);
@@ -138,6 +157,20 @@ std::vector<uint8_t> Coupler::bodiesAttachment() const {
       w.put(BodyKind::Other);
     }
   }
+  // the tools: the bodies that carry blades and needles (a body coupled above as well is
+  // written twice, the same state), each thread's chain and what its added mass keeps
+  // from one advance to the next
+  w.section("coupled tools");
+  w.put((uint64_t)slicers_.size());
+  for (const SlicerLink& l : slicers_) RigidState::write(w, *l.frame.body);
+  w.put((uint64_t)needles_.size());
+  for (const NeedleLink& l : needles_) RigidState::write(w, *l.frame.body);
+  w.put((uint64_t)threads_.size());
+  for (const ThreadLink& t : threads_) {
+    writeMultiBody(w, *t.thread);
+    w.put((uint64_t)t.velocity.size());
+    for (const btVector3& v : t.velocity) put(w, v);
+  }
   return w.finish();
 }
 
@@ -145,7 +178,6 @@ std::vector<uint8_t> Coupler::saveToMemory() const { return scene_.saveToMemory(
 void Coupler::save(const std::string& path) const { scene_.save(path, bodiesAttachment()); }
 
 void Coupler::loadFromMemory(const std::vector<uint8_t>& bytes) {
-  refuseCurvesInCheckpoints();
   // read and check every body against this coupler's first, so a refusal changes nothing
   const std::vector<uint8_t> attachment = scene_.attachmentOf(bytes);
   checkpoint::Reader r(attachment.data(), attachment.size());
@@ -153,10 +185,6 @@ void Coupler::loadFromMemory(const std::vector<uint8_t>& bytes) {
   if (r.get<uint64_t>("the coupled body count") != links_.size())
     throw CheckpointError(CheckpointError::Reason::Unsupported,
                           "it holds another number of coupled bodies than this coupler's " + std::to_string(links_.size()));
-  struct RigidState {
-    btTransform t;
-    btVector3 v, w;
-  };
   std::vector<RigidState> rigid(links_.size());
   std::vector<MultiBodyState> multi(links_.size());
   for (size_t i = 0; i < links_.size(); ++i) {
@@ -169,32 +197,49 @@ void Coupler::loadFromMemory(const std::vector<uint8_t>& bytes) {
       throw CheckpointError(CheckpointError::Reason::Unsupported,
                             "coupled body " + std::to_string(i) + " is of another kind than in the checkpoint");
     if (kind == BodyKind::Rigid)
-    {
-      rigid[i].t = getTransform(r, "a rigid body's transform");
-      rigid[i].v = getVector(r, "a rigid body's velocity");
-      rigid[i].w = getVector(r, "a rigid body's angular velocity");
-    }
+      rigid[i].read(r);
     else if (kind == BodyKind::MultiBody)
       multi[i].read(r, *l.multi);
+  }
+  r.section("coupled tools");
+  auto count = [&](size_t mine, const char* what) {
+    if (r.get<uint64_t>(what) != mine)
+      throw CheckpointError(CheckpointError::Reason::Unsupported,
+                            std::string("it holds another number of ") + what + " than this coupler's " +
+                                std::to_string(mine));
+  };
+  count(slicers_.size(), "coupled slicers");
+  std::vector<RigidState> slicerBodies(slicers_.size()), needleBodies(needles_.size());
+  for (RigidState& b : slicerBodies) b.read(r);
+  count(needles_.size(), "coupled needles");
+  for (RigidState& b : needleBodies) b.read(r);
+  count(threads_.size(), "coupled threads");
+  std::vector<MultiBodyState> chains(threads_.size());
+  std::vector<std::vector<btVector3>> velocities(threads_.size());
+  for (size_t i = 0; i < threads_.size(); ++i) {
+    chains[i].read(r, *threads_[i].thread);
+    velocities[i].resize(r.get<uint64_t>("a thread's segment velocity count"));
+    if (velocities[i].size() != threads_[i].velocity.size())
+      throw CheckpointError(CheckpointError::Reason::Unsupported,
+                            "coupled thread " + std::to_string(i) + "'s added mass is not as in the checkpoint");
+    for (btVector3& v : velocities[i]) v = getVector(r, "a thread segment's velocity");
   }
   r.finish();
   scene_.loadFromMemory(bytes);
   for (size_t i = 0; i < links_.size(); ++i) {
     const Link& l = links_[i];
-    if (l.rigid) {
-      l.rigid->setWorldTransform(rigid[i].t);
-      l.rigid->updateInertiaTensor();  // the world inertia follows the orientation only when Bullet integrates
-      l.rigid->setInterpolationWorldTransform(rigid[i].t);
-      if (l.rigid->getMotionState()) l.rigid->getMotionState()->setWorldTransform(rigid[i].t);
-      l.rigid->setLinearVelocity(rigid[i].v);
-      l.rigid->setAngularVelocity(rigid[i].w);
-      l.rigid->setInterpolationLinearVelocity(rigid[i].v);
-      l.rigid->setInterpolationAngularVelocity(rigid[i].w);
-      l.rigid->clearForces();
-      if (l.dynamic) l.rigid->activate(true);
-    } else if (multi[i].saved) {
+    if (l.rigid)
+      rigid[i].apply(*l.rigid, l.dynamic);
+    else if (multi[i].saved)
       multi[i].apply(*l.multi);
-    }
+  }
+  for (size_t i = 0; i < slicers_.size(); ++i)
+    slicerBodies[i].apply(*slicers_[i].frame.body, !slicers_[i].frame.body->isStaticOrKinematicObject());
+  for (size_t i = 0; i < needles_.size(); ++i)
+    needleBodies[i].apply(*needles_[i].frame.body, !needles_[i].frame.body->isStaticOrKinematicObject());
+  for (size_t i = 0; i < threads_.size(); ++i) {
+    chains[i].apply(*threads_[i].thread);
+    threads_[i].velocity = velocities[i];
   }
   for (Link& l : links_) l.force = l.torque = btVector3(0, 0, 0);
   resetInterval();

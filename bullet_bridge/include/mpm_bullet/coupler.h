@@ -237,15 +237,17 @@ class Coupler {
   /// Checkpoints of a coupled scene: Scene::save with the poses and velocities of the
   /// coupled Bullet bodies (rigid bodies: transform, linear and angular velocity;
   /// multibodies: base pose and velocities, joint positions and velocities) as its
-  /// attachment, so rewinding puts the tools back where the tissue was. Not kept: the
+  /// attachment, so rewinding puts the tools back where the tissue was: the bodies of the
+  /// slicers and needles, each thread's chain and its added mass's velocities too (the
+  /// scene keeps the needles' tips and the threads' points). Not kept: pins and drivers
+  /// (the caller's, as built), Bullet's constraint impulses (its solver starts each tick
+  /// from none). Not kept: the
   /// warm-start caches of Bullet's own contacts (body on body) and the world's clock (the
   /// leftover time of a fixed-step stepSimulation). Bodies touching only the tissue step
   /// on bit for bit as the run that was saved; with Bullet contacts they resume from the
   /// same poses and velocities. load() refuses (CheckpointError, Unsupported)
   /// a checkpoint whose coupled bodies differ in number or kind from this coupler's, and
-  /// then changes neither the scene nor the bodies. A coupler with needles or threads
-  /// (addNeedle, addThread) refuses both save and load (CheckpointError, Unsupported):
-  /// their curves' state is not in checkpoints yet. With a tissue interval, save() refuses
+  /// then changes neither the scene nor the bodies. With a tissue interval, save() refuses
   /// (Unsupported) while an interval is open (the scene ahead of Bullet); stepSimulation
   /// by whole intervals saves between them.
   void save(const std::string& path) const;
@@ -280,8 +282,6 @@ class Coupler {
   struct ThreadLink;
   /// Takes back the thread segments' coupling forces of this tick (after it, or on error).
   void takeBackThreadForces();
-  /// Throws CheckpointError (Unsupported) when needles or threads are coupled.
-  void refuseCurvesInCheckpoints() const;
   /// The coupled bodies' poses and velocities, as a checkpoint's attachment.
   std::vector<uint8_t> bodiesAttachment() const;
   ShapeId addObject(btCollisionObject* object, btRigidBody* rigid, btMultiBody* multi, int link,

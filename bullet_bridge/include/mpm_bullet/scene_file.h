@@ -88,8 +88,8 @@ class LoadedScene {
   /// internal ticks of world.tick. Rethrows an error a tick raised (Coupler::rethrowError).
   void advanceFrame();
 
-  /// Coupler::save / load, and the frame count follows the scene's time. A coupler with
-  /// needles or threads refuses both (CheckpointError).
+  /// Coupler::save / load, and the frame count and the bodies' scripts follow the scene's
+  /// time. Load into a scene built from the same file and overrides.
   void saveCheckpoint(const std::string& path) const;
   void loadCheckpoint(const std::string& path);
 
