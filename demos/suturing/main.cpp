@@ -1,28 +1,18 @@
 // Suturing demo: runs assets/scenes/suturing.json (the scene: two tissue blocks with a gap,
 // a curved needle turned through both and then drawn up and back over the wound, its
-// thread from a knot over the wound; see the file's description). What the demo adds is
-// the hand's judgement and what it measures: the pull stops, and the needle is held where
-// it is, once the thread carries --hold-tension at the needle's eye (low-passed over 20
-// ms, as a hand feels it) or the wound's gap (seen once a frame) is down to --close-gap.
-// Pulled on, the thread cuts out through the top of a bite and the wound opens again.
+// thread from a knot over the wound; see the file's description). The hand pulls as a
+// surgeon does, to a tension, and holds it: the needle's driver never pushes harder than
+// --pull-force (NeedleDriveLimits::maxForce, the file's 0.8 N), so once the thread carries
+// that the needle stops where the tissue balances it, and the wound's gap at the end is
+// what the tissue and the thread make of that tension, not where a rule stopped the pull.
 // Writes in --out the file's frames (PNG, PLY), frames.csv, suturing.csv (per frame: time,
 // needle force, gap, thread tension at the eye, eye pin gap, tip inside, needle turn, wall
 // time) and summary.txt.
 //
-// Status (dx 2.5 mm, 12 s, 240 frames, about 2 min on 2 idle cores; MLS-MPM): the tip
-// breaks into block 1 at 1.05 s, the needle goes through both bites (peak force 0.137 N)
-// and draws the thread after it; pulled up over the wound the thread, held by the tissue
-// (ThreadCoupling::addedMass), draws the gap from 7.25 mm down, and the pull stops and
-// holds where it reaches 2.5 mm (about 10.2 s). Both stops sit on the steep part of the
-// closing: the gap falls 0.2 mm a frame there and the tension is still rising through
-// 0.9 N, so either stop holds the wound at about the same frame (measured in two builds:
-// the gap at 10.25 s, 2.43 mm; the tension at 10.20 s, 1.00 N and 2.48 mm). At 2 mm they
-// did not: the gap's least (2.00 mm) and the tension's peak (0.98-1.00 N) are where the
-// thread starts to cut out of a bite, and a build that missed both by 4 um and 25 mN let
-// the wound open again to 6.6 mm.
-// --solver pb advances PB-MPM once every 6 Bullet ticks (world.tissueInterval); --one-way
-// and --no-added-mass show the couplings without the hold; --set patches anything else in
-// the file.
+// Status (dx 2.5 mm, 12 s, 240 frames, about 5 min on 2 cores; MLS-MPM): see docs/
+// benchmarks.md for the measured gap and tension. --solver pb advances PB-MPM once every
+// 6 Bullet ticks (world.tissueInterval); --one-way and --no-added-mass show the couplings
+// without the hold; --set patches anything else in the file.
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 #include <CLI/CLI.hpp>
@@ -59,7 +49,7 @@ int main(int argc, char** argv) {
   std::string scenePath = MPM_ASSETS_DIR "/scenes/suturing.json", solverName = "mls";
   demo::SceneOptions options;
   options.out = "out/suturing";
-  float dx = 0.f, holdTension = 1.f, closeGap = 0.0025f;
+  float dx = 0.f, pullForce = 0.f;
   bool oneWay = false, noAddedMass = false;
   int frames = -1;
   app.add_option("--scene", scenePath, "the scene file");
@@ -71,9 +61,8 @@ int main(int argc, char** argv) {
   app.add_flag("--one-way", oneWay, "the thread drags the tissue, the tissue does not hold it (no impulses to its links)");
   app.add_flag("--no-added-mass", noAddedMass,
                "two-way without ThreadCoupling::addedMass: each link gets its segment's own momentum change only");
-  app.add_option("--hold-tension", holdTension, "the pull stops once the thread carries this at the eye [N]")
+  app.add_option("--pull-force", pullForce, "the most the hand pulls the needle with [N] (default: the file's maxForce)")
       ->check(CLI::PositiveNumber);
-  app.add_option("--close-gap", closeGap, "the pull stops once the gap is down to this [m]")->check(CLI::NonNegativeNumber);
   CLI11_PARSE(app, argc, argv);
 
   try {
@@ -86,6 +75,9 @@ int main(int argc, char** argv) {
     if (oneWay || noAddedMass)
       overrides.push_back(std::string(R"({"threads": [{"name": "thread", "coupling": {"dynamic": )") +
                           (oneWay ? "false" : "true") + R"(, "addedMass": false}}]})");
+    if (pullForce > 0.f)
+      overrides.push_back(R"({"bodies": [{"name": "needle", "motion": {"limits": {"maxForce": )" +
+                          std::to_string(pullForce) + "}}}]}");
     auto loaded = mpm::bullet::LoadedScene::fromFile(scenePath, overrides);
     mpm::Scene& scene = loaded->scene();
     const mpm::ParticleObjectId left = loaded->object("left"), right = loaded->object("right");
@@ -95,17 +87,11 @@ int main(int argc, char** argv) {
     btMultiBodyPoint2Point* eyePin = loaded->threadPin("thread", eyePoint);
     const btVector3 eyeInNeedle = eyePin->getPivotInB();
     const mpm::CurveId needleCurve = loaded->coupler().needleOf(needle);
-    const float top = 0.02f, turnStop = 5.f;  // the blocks' tops [m]; the turn's end [s] (the file's keyframes)
+    const float top = 0.02f;  // the blocks' tops [m]
 
-    // the hand: per tick the eye's tension; the pull held once it carries holdTension
+    // the thread's pull at the eye, summed over each frame
     btVector3 eyeImpulse(0, 0, 0);
-    float eyeTension = 0.f;  // [N] low-passed over 20 ms
-    loaded->setTickCallback([&](float dt) {
-      const btVector3 f = mpm::bullet::pinForce(eyePin, dt);
-      eyeTension += (f.length() - eyeTension) * std::min(dt / 0.02f, 1.f);
-      eyeImpulse += f * dt;
-      if (loaded->bulletTime() > turnStop && eyeTension >= holdTension) loaded->holdBody("needle");
-    });
+    loaded->setTickCallback([&](float dt) { eyeImpulse += mpm::bullet::pinForce(eyePin, dt) * dt; });
 
     if (frames < 0) frames = loaded->frameCount();
     const float dxUsed = scene.settings().dx, frameTime = loaded->frameTime();
@@ -120,8 +106,8 @@ int main(int argc, char** argv) {
     scene.readPositions(right, b);
     const float gap0 = gapWidth(a, b, top);
     float gap = gap0, gapMin = gap0, peakForce = 0.f, peakTension = 0.f, tension = 0.f;
-    float heldAt = -1.f, heldGap = 0.f, heldTension = 0.f;  // where the pull stopped
-    bool closed = false;
+    float lastSecondTension = 0.f, lastSecondGap = 0.f;  // means over the last second
+    int lastSecondFrames = 0;
     double wallTotal = 0;
     auto start = std::chrono::steady_clock::now();
     demo::runFrames(*loaded, options.out, frames, "suturing", [&] {
@@ -140,31 +126,27 @@ int main(int argc, char** argv) {
       csv << scene.time() << "," << force << "," << gap * 1e3 << "," << tension << "," << eyeGap * 1e3 << ","
           << (scene.tipInside(needleCurve) ? 1 : 0) << "," << turn << "," << (first ? 0 : wall) << std::endl;
       gapMin = std::min(gapMin, gap);
-      if (loaded->held("needle") && heldAt < 0.f) {
-        heldAt = (float)scene.time();
-        heldGap = gap;
-        heldTension = tension;
-      }
-      // the gap, seen once a frame, stops the pull from the next tick on
-      if (!closed && scene.time() > turnStop && gap <= closeGap) {
-        closed = true;
-        loaded->holdBody("needle");
+      if (scene.time() > frames * frameTime - 1.0 + 1e-6) {
+        lastSecondTension += tension;
+        lastSecondGap += gap;
+        ++lastSecondFrames;
       }
       peakForce = std::max(peakForce, force);
       peakTension = std::max(peakTension, tension);
       start = std::chrono::steady_clock::now();
     });
 
+    const float n = (float)std::max(lastSecondFrames, 1);
     char line[768];
     std::snprintf(line, sizeof line,
                   "solver %s, dx %.1f mm, %zu particles, %.1f s simulated in %.0f s (%.2f s per frame)\n"
                   "gap across the wound (top 4 mm, |z| < 6 mm): %.2f mm at the start, %.2f mm at the end, %.2f mm at "
-                  "the least\n"
-                  "needle force: peak %.3f N; thread tension at the needle's eye: peak %.3f N, at the end %.3f N\n"
-                  "the pull held at %.2f s (gap %.2f mm, tension %.3f N over the frame; -1: never)\n",
+                  "the least, %.2f mm over the last second\n"
+                  "needle force: peak %.3f N; thread tension at the needle's eye: peak %.3f N, at the end %.3f N, "
+                  "%.3f N over the last second\n",
                   solverName.c_str(), dxUsed * 1e3, scene.particleCount(), frames * frameTime, wallTotal,
-                  wallTotal / frames, gap0 * 1e3, gap * 1e3, gapMin * 1e3, peakForce, peakTension, tension, heldAt,
-                  heldGap * 1e3, heldTension);
+                  wallTotal / frames, gap0 * 1e3, gap * 1e3, gapMin * 1e3, lastSecondGap / n * 1e3, peakForce,
+                  peakTension, tension, lastSecondTension / n);
     std::ofstream(options.out + "/summary.txt") << line;
     std::printf("%s", line);
     std::printf("frames, frames.csv, suturing.csv and summary.txt in %s/\n", options.out.c_str());
