@@ -349,11 +349,7 @@ void NeedleDriver::tick(float dt) {
   const btScalar maxJ = limits_.maxForce * dt;
   if (J.length() > maxJ) J *= maxJ / J.length();
   // angular: rotation vector from the body's orientation to the target's (shortest way)
-  btQuaternion q = target_.getRotation() * body_->getOrientation().inverse();
-  if (q.w() < 0) q = -q;
-  const btVector3 qv(q.x(), q.y(), q.z());
-  const btScalar s = qv.length();
-  const btVector3 theta = s > 1e-9f ? qv * (2 * std::atan2(s, q.w()) / s) : 2 * qv;
+  const btVector3 theta = rotationVector(target_.getRotation() * body_->getOrientation().inverse());
   const btVector3 dw = targetW_ + theta / tau - body_->getAngularVelocity();
   // the angular impulse I dw in the body's principal frame (an axis with infinite inertia
   // is left alone)

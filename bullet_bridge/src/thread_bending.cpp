@@ -2,8 +2,6 @@
 
 #include <BulletDynamics/Featherstone/btMultiBodyLinkCollider.h>
 
-#include <Eigen/Cholesky>
-#include <Eigen/Core>
 #include <cmath>
 
 namespace mpm::bullet {
@@ -13,16 +11,20 @@ namespace {
 /// The rows: three a joint, along its degrees of freedom.
 int rowCount(const btMultiBody* mb) { return 3 * mb->getNumLinks(); }
 
-/// A spherical joint's turn as a rotation vector, the shorter way round.
+/// A spherical joint's turn.
 btVector3 jointTurn(const btMultiBody* mb, int link) {
   const btScalar* q = mb->getJointPosMultiDof(link);
-  const btScalar sign = q[3] < 0 ? -1 : 1;
-  const btVector3 v(sign * q[0], sign * q[1], sign * q[2]);
-  const btScalar s = v.length();
-  return s > 1e-9f ? v * (2 * std::atan2(s, sign * q[3]) / s) : 2 * v;
+  return rotationVector(btQuaternion(q[0], q[1], q[2], q[3]));
 }
 
 }  // namespace
+
+btVector3 rotationVector(btQuaternion q) {
+  if (q.w() < 0) q = -q;
+  const btVector3 v(q.x(), q.y(), q.z());
+  const btScalar s = v.length();
+  return s > 1e-9f ? v * (2 * std::atan2(s, q.w()) / s) : 2 * v;
+}
 
 ThreadBending::ThreadBending(btMultiBody* thread, btScalar stiffness)
     : btMultiBodyConstraint(thread, thread, -1, -1, rowCount(thread), false, MULTIBODY_CONSTRAINT_SPHERICAL_MOTOR),
@@ -50,9 +52,10 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
   const int m = getNumRows();
   if (!(stiffness_ > 0) || !(dt > 0) || m == 0) return;
   const int first = rows.size();
-  Eigen::VectorXd rhs(m);
-  std::vector<int> response(m);  // where each row's unit response lies in data
+  rhs_.resize(m);
+  response_.resize(m);
   const btVector3 zero(0, 0, 0);
+  btVector3 turn;
   for (int r = 0; r < m; ++r) {
     btMultiBodySolverConstraint& c = rows.expandNonInitializing();
     c.m_orgConstraint = this;
@@ -60,18 +63,20 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
     // the joint's rate after the unconstrained step, and its unit response
     const btScalar u = fillMultiBodyConstraint(c, data, jacobianA(r), jacobianB(r), zero, zero, zero, zero, 0, info,
                                                -m_maxAppliedImpulse, m_maxAppliedImpulse);
-    response[r] = c.m_jacAindex;
-    rhs[r] = -(jointTurn(m_bodyA, r / 3)[r % 3] / dt + u);
+    response_[r] = c.m_jacAindex;
+    if (r % 3 == 0) turn = jointTurn(m_bodyA, r / 3);
+    rhs_[r] = -(turn[r % 3] / dt + u);
   }
   // A: row r's rate after a unit impulse on row s (symmetric: the articulated inverse inertia)
   const btScalar gamma = 1 / (stiffness_ * dt * dt);
-  Eigen::MatrixXd A(m, m);
+  A_.resize(m, m);
   for (int s = 0; s < m; ++s) {
-    const btScalar* dv = &data.m_deltaVelocitiesUnitImpulse[response[s]];
-    for (int r = 0; r < m; ++r) A(r, s) = dv[6 + m_bodyA->getLink(r / 3).m_dofOffset + r % 3];
+    const btScalar* dv = &data.m_deltaVelocitiesUnitImpulse[response_[s]];
+    for (int r = 0; r < m; ++r) A_(r, s) = dv[6 + m_bodyA->getLink(r / 3).m_dofOffset + r % 3];
   }
-  A.diagonal().array() += gamma;
-  const Eigen::VectorXd lambda = A.ldlt().solve(rhs);
+  A_.diagonal().array() += gamma;
+  ldlt_.compute(A_);
+  lambda_ = ldlt_.solve(rhs_);
   // The chain's own solution is applied as Bullet's warm start applies an impulse (to the
   // body after the solve, and to the solver's accumulator now); each row then carries a
   // correction mu, a soft row (c.m_cfm = gamma c.m_jacDiagABInv) whose fixed point is
@@ -83,11 +88,11 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
     btMultiBodySolverConstraint& c = rows[first + r];
     const btScalar D = c.m_jacDiagABInv > 0 ? 1 / c.m_jacDiagABInv : 0;
     c.m_jacDiagABInv = 1 / (D + gamma);
-    c.m_rhs = (btScalar)(rhs[r] - gamma * lambda[r]) * c.m_jacDiagABInv;
+    c.m_rhs = (btScalar)(rhs_[r] - gamma * lambda_[r]) * c.m_jacDiagABInv;
     c.m_rhsPenetration = 0;
     c.m_cfm = gamma * c.m_jacDiagABInv;
-    btScalar* dv = &data.m_deltaVelocitiesUnitImpulse[response[r]];
-    const btScalar impulse = (btScalar)lambda[r];
+    btScalar* dv = &data.m_deltaVelocitiesUnitImpulse[response_[r]];
+    const btScalar impulse = (btScalar)lambda_[r];
     m_bodyA->applyDeltaVeeMultiDof2(dv, impulse);
     for (int i = 0; i < ndof; ++i) data.m_deltaVelocities[c.m_deltaVelAindex + i] += dv[i] * impulse;
   }

@@ -4,7 +4,14 @@
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraint.h>
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <vector>
+
 namespace mpm::bullet {
+
+/// The turn of `q` as a rotation vector (axis times angle), the shorter way round.
+btVector3 rotationVector(btQuaternion q);
 
 /// The bending springs of a thread's spherical joints, k = `stiffness` [N m/rad] each
 /// (EI / L): every joint resists its turn theta (a rotation vector) with the moment
@@ -12,15 +19,18 @@ namespace mpm::bullet {
 ///   (A + gamma I) lambda = -(theta / dt + u),  gamma = 1 / (k dt^2),
 /// u the joints' rates after Bullet's unconstrained step, A their response to unit
 /// impulses (Featherstone's articulated inverse inertia, the rows' unit responses), lambda
-/// the joints' impulses; then one row per joint axis whose bounds are both lambda, so the
-/// solver applies exactly that while it resolves pins and contacts.
+/// the joints' impulses. lambda is applied as Bullet's warm start applies an impulse, and
+/// each joint axis keeps a soft row (CFM gamma) whose fixed point is the same equation
+/// with the pins' and contacts' impulses: the solver's iterations add only what they change.
 ///
 /// Why not Bullet's explicit joint torques: a 2 mm polypropylene 3-0 segment (EI 1.6e-7
 /// N m^2, its floored moment 1e-12 kg m^2) turns at sqrt(4 k / I) = 1.8e4 rad/s, 17 times
-/// past a 1/960 s tick's bound of 2. Why not soft rows left to the solver (ODE's CFM):
-/// its Gauss-Seidel iterations over a chain of coupled joints did not converge: a
-/// cantilever sagged 2.7 times the rod's deflection with 50 iterations a tick, 1.2 times
-/// with 200 and 1.05 (the chain's exact value) only with 1000.
+/// past a 1/960 s tick's bound of 2. Why not the soft rows alone (ODE's CFM): the solver's
+/// Gauss-Seidel iterations over a chain of coupled joints did not converge: a cantilever
+/// sagged 2.7 times the rod's deflection with 50 iterations a tick, 1.2 times with 200 and
+/// 1.05 (the chain's exact value) only with 1000. Why not lambda alone (rows that apply
+/// exactly it): the pins then met it only on the next tick, and a pinned thread's pin
+/// opened by 3 segments at 1/240 s.
 class ThreadBending : public btMultiBodyConstraint {
  public:
   ThreadBending(btMultiBody* thread, btScalar stiffness);
@@ -30,10 +40,14 @@ class ThreadBending : public btMultiBodyConstraint {
   void createConstraintRows(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data,
                             const btContactSolverInfo& info) override;
   void debugDraw(btIDebugDraw*) override {}
-  btScalar stiffness() const { return stiffness_; }
 
  private:
   btScalar stiffness_;
+  // the tick's solve, kept between ticks so the step allocates nothing once sized
+  Eigen::MatrixXd A_;
+  Eigen::VectorXd rhs_, lambda_;
+  Eigen::LDLT<Eigen::MatrixXd> ldlt_;
+  std::vector<int> response_;  ///< where each row's unit response lies in the solver's data
 };
 
 }  // namespace mpm::bullet

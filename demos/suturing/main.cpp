@@ -12,7 +12,7 @@
 // Status (dx 2.5 mm, 12 s, 240 frames, about 5 min on 2 cores; MLS-MPM): see docs/
 // benchmarks.md for the measured gap and tension. --solver pb advances PB-MPM once every
 // 6 Bullet ticks (world.tissueInterval); --one-way and --no-added-mass show the couplings
-// without the hold; --set patches anything else in the file.
+// without the tissue's hold on the thread; --set patches anything else in the file.
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 #include <CLI/CLI.hpp>

@@ -240,10 +240,8 @@ class Coupler {
   /// attachment, so rewinding puts the tools back where the tissue was: the bodies of the
   /// slicers and needles, each thread's chain and its added mass's velocities too (the
   /// scene keeps the needles' tips and the threads' points). Not kept: pins and drivers
-  /// (the caller's, as built), Bullet's constraint impulses (its solver starts each tick
-  /// from none). Not kept: the
-  /// warm-start caches of Bullet's own contacts (body on body) and the world's clock (the
-  /// leftover time of a fixed-step stepSimulation). Bodies touching only the tissue step
+  /// (the caller's, as built), the warm-start caches of Bullet's own contacts (body on
+  /// body) and the world's clock (the leftover time of a fixed-step stepSimulation). Bodies touching only the tissue step
   /// on bit for bit as the run that was saved; with Bullet contacts they resume from the
   /// same poses and velocities. load() refuses (CheckpointError, Unsupported)
   /// a checkpoint whose coupled bodies differ in number or kind from this coupler's, and
