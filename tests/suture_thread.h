@@ -33,6 +33,24 @@ inline bullet::SutureThreadDesc testThread(const btVector3& start, const btVecto
   return d;
 }
 
+/// Kinetic plus potential energy (gravity along -y) of a multibody.
+inline double multiBodyEnergy(const btMultiBody* mb, float g) {
+  const int n = mb->getNumLinks() + 1;
+  btAlignedObjectArray<btVector3> omega, vel;
+  omega.resize(n);
+  vel.resize(n);
+  mb->compTreeLinkVelocities(&omega[0], &vel[0]);  // each in its link's frame, base first
+  double e = 0;
+  for (int s = 0; s < n; ++s) {
+    const double m = s == 0 ? mb->getBaseMass() : mb->getLink(s - 1).m_mass;
+    const btVector3 I = s == 0 ? mb->getBaseInertia() : mb->getLink(s - 1).m_inertiaLocal;
+    const btVector3& w = omega[s];
+    e += 0.5 * m * vel[s].length2() + 0.5 * (I.x() * w.x() * w.x() + I.y() * w.y() * w.y() + I.z() * w.z() * w.z());
+    e += m * g * bullet::threadSegmentTransform(mb, s).getOrigin().y();
+  }
+  return e;
+}
+
 /// Worst deviations of a thread over a run: |consecutive points - L| / L, joint gap / L
 /// (the end of segment s - 1 against the start of segment s, from their transforms), pin
 /// gap / L.

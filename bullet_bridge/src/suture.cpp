@@ -101,6 +101,9 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
   // spinning in free fall ends 2 s later within 1e-5 m of where one 10 to 1000 times
   // heavier (not floored) does
   constexpr btScalar kMinMoment = 1e-12f;  // [kg m^2]
+  // Bullet clamps a joint's rate at 100 rad/s by default; a taut segment's turn runs
+  // faster (ThreadBending answers it implicitly), and the clamp cut it short
+  constexpr btScalar kMaxJointRate = 1e6f;  // [rad/s]
   const btScalar transverse = m * (L * L / 12 + r * r / 4);
   // and the turn of a segment under the tension it must carry, resolved by the tick
   // (SutureThreadDesc::maxTension: omega^2 = T L / I, omega tick <= 1)
@@ -114,6 +117,7 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
   for (int i = 0; i < n - 1; ++i)
     mb->setupSpherical(i, m, inertia, i - 1, btQuaternion::getIdentity(), half, half, /*disableParentCollision*/ true);
   mb->finalizeMultiDof();
+  mb->setMaxCoordinateVelocity(kMaxJointRate);
   const btVector3 dir = d.direction.normalized();
   const btQuaternion rot = shortestArcQuat(btVector3(1, 0, 0), dir);
   mb->setBasePos(d.start + dir * (L / 2));
@@ -134,9 +138,12 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
     else
       mb->getLink(link).m_collider = c;
   }
-  // bending: a spring of EI / L at each joint (suture.h, ThreadBending)
+  // bending, a spring of EI / L at each joint, and the tension's turn, both implicit
+  // (suture.h, ThreadBending; also an action, to read the pins' share after the step)
   const btScalar EI = d.youngsModulus * (btScalar)M_PI * r * r * r * r / 4;
-  if (EI > 0) world->addMultiBodyConstraint(new ThreadBending(mb, EI / L));
+  auto* stiffness = new ThreadBending(mb, EI / L, L);
+  world->addMultiBodyConstraint(stiffness);
+  world->addAction(stiffness);
   btAlignedObjectArray<btQuaternion> scratchRot;
   btAlignedObjectArray<btVector3> scratchPos;
   mb->forwardKinematics(scratchRot, scratchPos);
@@ -149,6 +156,7 @@ void destroySutureThread(btMultiBodyDynamicsWorld* world, btMultiBody* mb) {
   for (int i = world->getNumMultiBodyConstraints() - 1; i >= 0; --i) {
     btMultiBodyConstraint* c = world->getMultiBodyConstraint(i);
     if (c->getMultiBodyA() == mb || c->getMultiBodyB() == mb) {
+      if (auto* stiffness = dynamic_cast<ThreadBending*>(c)) world->removeAction(stiffness);
       world->removeMultiBodyConstraint(c);
       delete c;
     }

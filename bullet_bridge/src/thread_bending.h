@@ -1,8 +1,11 @@
 #pragma once
-// A suture thread's bending stiffness, solved implicitly each tick and handed to Bullet's
-// constraint solver as the impulses it must apply.
+// A suture thread's bending stiffness and its tension's geometric stiffness, solved
+// implicitly each tick and handed to Bullet's constraint solver as the impulses it must
+// apply.
 #include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Dynamics/btActionInterface.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraint.h>
+#include <BulletDynamics/Featherstone/btMultiBodyJointFeedback.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -31,9 +34,21 @@ btVector3 rotationVector(btQuaternion q);
 /// 1.05 (the chain's exact value) only with 1000. Why not lambda alone (rows that apply
 /// exactly it): the pins then met it only on the next tick, and a pinned thread's pin
 /// opened by 3 segments at 1/240 s.
-class ThreadBending : public btMultiBodyConstraint {
+///
+/// The tension's turn (geometric stiffness; Tournier et al., "Stable Constrained
+/// Dynamics", ACM TOG 2015): under tension T_s a segment between its neighbours turns
+/// about its centre with omega^2 = T_s L / I, explicit in Bullet (8 N on a 3-0 segment:
+/// omega tick = 130 at 1/960 s). Two more rows a segment, its angular rate about its
+/// transverse axes, stiffness T_s L and no stretch (the turn is measured from this tick's
+/// pose), join the same solve when a segment's turn would outrun the tick. T_s comes
+/// from Bullet's joint feedback (the thread's links' m_jointFeedback are this object's):
+/// the unconstrained pass of this tick, plus the pins' and contacts' share of the last.
+/// Being an action too, it reads that share after the step (updateAction).
+class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
  public:
-  ThreadBending(btMultiBody* thread, btScalar stiffness);
+  ThreadBending(btMultiBody* thread, btScalar stiffness, btScalar segmentLength);
+  ~ThreadBending() override;
+  void updateAction(btCollisionWorld*, btScalar) override;
   void finalizeMultiDof() override;
   int getIslandIdA() const override;
   int getIslandIdB() const override;
@@ -42,9 +57,22 @@ class ThreadBending : public btMultiBodyConstraint {
   void debugDraw(btIDebugDraw*) override {}
 
  private:
-  btScalar stiffness_;
+  btScalar stiffness_, segmentLength_;  ///< EI / L [N m/rad] (0: limp), L [m]
+  std::vector<btMultiBodyJointFeedback> feedback_;  ///< each link's, Bullet's to fill
+  /// per segment: its tension [N]; per joint: the force along the link from this tick's
+  /// unconstrained pass, from the pins and contacts on the last tick, and the velocity
+  /// products Bullet's constraint pass counts again
+  std::vector<btScalar> tension_, free_, pinned_, motion_;
+  std::vector<btSpatialForceVector> saved_;
+  btScalar jointTension(int link) const;
   // the tick's solve, kept between ticks so the step allocates nothing once sized
-  Eigen::MatrixXd A_;
+  std::vector<int> active_;      ///< the rows this tick, bending first
+  std::vector<btScalar> stiff_;  ///< each row's stiffness
+  Eigen::VectorXd gamma_;
+  btAlignedObjectArray<btScalar> scratchR_;
+  btAlignedObjectArray<btVector3> scratchV_;
+  btAlignedObjectArray<btMatrix3x3> scratchM_;
+  Eigen::MatrixXd A_, S_;
   Eigen::VectorXd rhs_, lambda_;
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   std::vector<int> response_;  ///< where each row's unit response lies in the solver's data

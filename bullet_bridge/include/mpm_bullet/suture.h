@@ -55,16 +55,18 @@ struct SutureThreadDesc {
   /// and a chain pinned at both ends closes a loop the articulated solve does not see.
   bool fixedBase = false;
   float friction = 0.3f;          ///< Bullet friction of the colliders (thread on other Bullet bodies)
-  /// [N] The largest tension the thread must carry stably at Bullet ticks of `tick` [s]
-  /// (a stitch pulled tight: about 0.2 N to close tests/test_suturing_bullet.cpp's wound).
+  /// [N] A tension the thread must carry stably at Bullet ticks of `tick` [s] with its
+  /// segments' moments raised, for a thread whose tension reaches it through a pin.
   /// Under tension T a segment between its neighbours turns about its centre like a
   /// torsion pendulum, omega^2 = T L / I (L the segment's length, I its transverse
-  /// moment), and Bullet integrates that turn explicitly: it needs omega tick < 2. A 3-0
-  /// suture's 2.5 mm segment (I = 1e-12 kg m^2 after the floor below) stays stable to
-  /// 0.15 N at ticks of 1/9600 s and no further (measured: its pin let go, the chain
-  /// whipped). So every moment is raised to at least tension L tick^2 (omega tick <= 1,
-  /// half the bound). 0: no raise. It makes the thread resist bending faster than a real
-  /// one would, which a stitch pulled slowly does not feel.
+  /// moment), which Bullet integrates explicitly (omega tick < 2: a 3-0 suture's 2.5 mm
+  /// segment, I = 1e-12 kg m^2, to 0.15 N at 1/9600 s). Every thread answers that turn
+  /// implicitly (ThreadBending, the tension's geometric stiffness; docs/physics.md): a
+  /// fixed-base thread pulled at its end carries 8 N at 1/960 s with its own inertia. A
+  /// pin's share of the tension arrives a tick late, though, and a thread pulled through a
+  /// pin holds only about 0.3 N at 1/960 s without this raise: every moment is raised to at
+  /// least tension L tick^2 (omega tick <= 1). 0: no raise. It makes the thread resist
+  /// bending faster than a real one would, which a stitch pulled slowly does not feel.
   float maxTension = 0.f;
   float tick = 1.f / 960;          ///< [s] Bullet's fixed tick for `maxTension`, > 0
   /// Collision filter of the colliders (Bullet's group and mask); mask 0: the thread
@@ -92,11 +94,11 @@ struct SutureThreadDesc {
 /// pin (btMultiBodyPoint2Point) holds it. A 6 cm thread pinned at one end and released 30
 /// degrees from vertical: at 1/240 s and 10 iterations the pin opened by 25 % of a segment;
 /// at 1/960 s and 50 iterations (world->getSolverInfo().m_numIterations) it stays within
-/// 1e-3 of a segment and the energy within 1 %. Released horizontally the thread whips:
-/// the joint speeds reach Bullet's btMultiBody::getMaxCoordinateVelocity() (100 rad/s,
-/// left as it is: raising it to 1e4 made the chain gain energy without bound at any tick
-/// down to 1e-4 s), which then takes energy out. Use ticks of 1/960 s or shorter and 50
-/// iterations for a thread.
+/// 1e-3 of a segment and the energy within 1 %. Released horizontally the thread whips and
+/// comes through whole. Bullet's clamp on a joint's rate (btMultiBody::
+/// setMaxCoordinateVelocity, 100 rad/s) is lifted to 1e6 rad/s: it cut short the turns the
+/// tension's implicit rows answer. Use ticks of 1/960 s or shorter and 50 iterations for
+/// a thread.
 btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThreadDesc& desc);
 
 /// Removes a thread made by makeSutureThread from `world` and deletes it with its
