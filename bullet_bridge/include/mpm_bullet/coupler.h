@@ -241,9 +241,11 @@ class Coupler {
   /// slicers and needles, each thread's chain and its added mass's velocities too (the
   /// scene keeps the needles' tips and the threads' points). Not kept: pins and drivers
   /// (the caller's, as built), the warm-start caches of Bullet's own contacts (body on
-  /// body) and the world's clock (the leftover time of a fixed-step stepSimulation). Bodies touching only the tissue step
-  /// on bit for bit as the run that was saved; with Bullet contacts they resume from the
-  /// same poses and velocities. load() refuses (CheckpointError, Unsupported)
+  /// body), a thread's pins' share of its tension on the last tick (ThreadBending: it
+  /// starts from none, which matters only while the tension's implicit rows act) and the
+  /// world's clock (the leftover time of a fixed-step stepSimulation). Bodies touching
+  /// only the tissue step on bit for bit as the run that was saved; with Bullet contacts
+  /// they resume from the same poses and velocities. load() refuses (CheckpointError, Unsupported)
   /// a checkpoint whose coupled bodies differ in number or kind from this coupler's, and
   /// then changes neither the scene nor the bodies. With a tissue interval, save() refuses
   /// (Unsupported) while an interval is open (the scene ahead of Bullet); stepSimulation
