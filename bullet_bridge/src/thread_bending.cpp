@@ -115,9 +115,6 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
     feedback_[(size_t)link].m_reactionForces = saved_[(size_t)link];
   }
   tension_[0] = links > 0 ? tension_[1] : 0;
-  scratchR_.resize(links + 1);
-  scratchV_.resize(links + 1);
-  scratchM_.resize(links + 1);
   // The tension's rows only when a turn would outrun the tick (below). A thread whose
   // segments alone turn 3 times slower than that (omega dt < 1/6, omega^2 = T_s L / I_s,
   // I_s a segment's transverse moment) pays for none: the chain's turns couple
@@ -164,11 +161,17 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
     rhs_[i] = -(x / dt + u);
   }
   int m = candidates;
-  // A: row i's rate after a unit impulse on row j (symmetric: J M^-1 J^T)
+  // A: row i's rate after a unit impulse on row j (symmetric: J M^-1 J^T); a bending
+  // row's Jacobian is one joint axis, so its rate is read off the response
   A_.resize(m, m);
   for (int j = 0; j < m; ++j) {
     const btScalar* dv = &data.m_deltaVelocitiesUnitImpulse[response_[j]];
     for (int i = 0; i < m; ++i) {
+      const int r = active_[i];
+      if (r < 3 * links) {
+        A_(i, j) = dv[6 + m_bodyA->getLink(r / 3).m_dofOffset + r % 3];
+        continue;
+      }
       const btScalar* J = &data.m_jacobians[rows[first + i].m_jacAindex];
       double s = 0;
       for (int k = 0; k < ndof; ++k) s += (double)J[k] * dv[k];
@@ -184,10 +187,12 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
   if (pulled > 0) {
     S_ = A_.bottomRightCorner(pulled, pulled);
     if (bending > 0) {
-      Eigen::MatrixXd B = A_.topLeftCorner(bending, bending);
-      B.diagonal().array() += 1 / (stiffness_ * dt * dt);
-      ldlt_.compute(B);
-      S_ -= A_.bottomLeftCorner(pulled, bending) * ldlt_.solve(A_.topRightCorner(bending, pulled));
+      B_ = A_.topLeftCorner(bending, bending);
+      B_.diagonal().array() += 1 / (stiffness_ * dt * dt);
+      ldlt_.compute(B_);
+      BinvC_ = ldlt_.solve(A_.topRightCorner(bending, pulled));
+      product_.noalias() = A_.bottomLeftCorner(pulled, bending) * BinvC_;
+      S_ -= product_;
     }
     double fastest = 0;
     for (int i = 0; i < pulled; ++i) fastest = std::max(fastest, stiff_[bending + i] * dt * dt * S_.row(i).cwiseAbs().sum());

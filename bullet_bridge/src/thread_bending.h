@@ -72,7 +72,7 @@ class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
   btAlignedObjectArray<btScalar> scratchR_;
   btAlignedObjectArray<btVector3> scratchV_;
   btAlignedObjectArray<btMatrix3x3> scratchM_;
-  Eigen::MatrixXd A_, S_;
+  Eigen::MatrixXd A_, S_, B_, BinvC_, product_;  ///< S_: the Schur complement of B_ (bending)
   Eigen::VectorXd rhs_, lambda_;
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
   std::vector<int> response_;  ///< where each row's unit response lies in the solver's data
