@@ -87,7 +87,8 @@ struct SutureThreadDesc {
 /// raises that thread's moments 15 times (a thread of 1.5e-3 kg/m or more in 2 mm
 /// segments is not floored). Throws mpm::InvalidArgument
 /// naming the field ("SutureThreadDesc.segments") for a bad description. The caller owns
-/// the result: release it with destroySutureThread.
+/// the result: release it with destroySutureThread. Its links' m_jointFeedback are the
+/// thread's own (the tension is read from them): leave them as they are.
 ///
 /// Stepping (measured, tests/test_suturing_bullet.cpp): Bullet's Featherstone chain of 30
 /// spherical joints is stable only with short ticks and enough solver iterations once a
