@@ -141,7 +141,7 @@ btMultiBody* makeSutureThread(btMultiBodyDynamicsWorld* world, const SutureThrea
   // bending, a spring of EI / L at each joint, and the tension's turn, both implicit
   // (suture.h, ThreadBending; also an action, to read the pins' share after the step)
   const btScalar EI = d.youngsModulus * (btScalar)M_PI * r * r * r * r / 4;
-  auto* stiffness = new ThreadBending(mb, EI / L, L);
+  auto* stiffness = new ThreadBending(world, mb, EI / L, L);
   world->addMultiBodyConstraint(stiffness);
   world->addAction(stiffness);
   btAlignedObjectArray<btQuaternion> scratchRot;
@@ -296,7 +296,13 @@ btMultiBodyPoint2Point* pinThreadPoint(btMultiBodyDynamicsWorld* world, btMultiB
   const int s = std::min(point, n - 1);  // the segment that carries the point
   const btVector3 h = segmentHalf(mb, s);
   const btVector3 pivotInLink = point == n ? h : -h;
-  auto* pin = new btMultiBodyPoint2Point(mb, s - 1, body, pivotInLink, pivotInBody);
+  // a thread's pins join its ThreadBending's implicit solve (ThreadPin)
+  ThreadBending* bending = nullptr;
+  for (int i = 0; i < world->getNumMultiBodyConstraints() && !bending; ++i)
+    if (world->getMultiBodyConstraint(i)->getMultiBodyA() == mb)
+      bending = dynamic_cast<ThreadBending*>(world->getMultiBodyConstraint(i));
+  btMultiBodyPoint2Point* pin = bending ? new ThreadPin(bending, s - 1, body, pivotInLink, pivotInBody)
+                                        : new btMultiBodyPoint2Point(mb, s - 1, body, pivotInLink, pivotInBody);
   pin->setMaxAppliedImpulse((btScalar)BT_LARGE_FLOAT);
   world->addMultiBodyConstraint(pin);
   return pin;

@@ -3,9 +3,11 @@
 // implicitly each tick and handed to Bullet's constraint solver as the impulses it must
 // apply.
 #include <BulletDynamics/Featherstone/btMultiBody.h>
+#include <BulletDynamics/Featherstone/btMultiBodyDynamicsWorld.h>
 #include <BulletDynamics/Dynamics/btActionInterface.h>
 #include <BulletDynamics/Featherstone/btMultiBodyConstraint.h>
 #include <BulletDynamics/Featherstone/btMultiBodyJointFeedback.h>
+#include <BulletDynamics/Featherstone/btMultiBodyPoint2Point.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
@@ -44,9 +46,17 @@ btVector3 rotationVector(btQuaternion q);
 /// from Bullet's joint feedback (the thread's links' m_jointFeedback are this object's):
 /// the unconstrained pass of this tick, plus the pins' and contacts' share of the last.
 /// Being an action too, it reads that share after the step (updateAction).
+///
+/// The thread's pins (ThreadPin) join the same solve as hard rows: a thread held by a pin
+/// carries its tension only through the pin, and the solver's Gauss-Seidel iterations
+/// between one pin and a chain of stiff rows did not converge (a thread pinned at its
+/// start and pulled with 1 N at 1/960 s whipped with 50 iterations a tick and held 8 N
+/// with 1000). The pins' impulses found are applied like the rows' (the solver's
+/// iterations add what the contacts change) and added to what each pin reports.
+class ThreadPin;
 class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
  public:
-  ThreadBending(btMultiBody* thread, btScalar stiffness, btScalar segmentLength);
+  ThreadBending(btMultiBodyDynamicsWorld* world, btMultiBody* thread, btScalar stiffness, btScalar segmentLength);
   ~ThreadBending() override;
   void updateAction(btCollisionWorld*, btScalar) override;
   void finalizeMultiDof() override;
@@ -57,17 +67,34 @@ class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
   void debugDraw(btIDebugDraw*) override {}
 
  private:
+  friend class ThreadPin;
+  btMultiBodyDynamicsWorld* world_;
+  std::vector<ThreadPin*> pins_;  ///< the thread's pins, in the world or not
+  std::vector<std::pair<ThreadPin*, int>> pinRows_;  ///< this tick's: each pin row's pin and its first row
+  void makePinRows(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data, const btContactSolverInfo& info);
   btScalar stiffness_, segmentLength_;  ///< EI / L [N m/rad] (0: limp), L [m]
   std::vector<btMultiBodyJointFeedback> feedback_;  ///< each link's, Bullet's to fill
   /// per segment: its tension [N]; per joint: the force along the link from this tick's
   /// unconstrained pass, from the pins and contacts on the last tick, and the velocity
   /// products Bullet's constraint pass counts again
   std::vector<btScalar> tension_, free_, pinned_, motion_;
+  /// per joint: the contacts' share (the last tick's constraints' less the pins'), the
+  /// pins' share (this tick's solve)
+  std::vector<btScalar> other_, own_;
+  std::vector<btScalar> rate_;                   ///< the pins' change of the chain's rates
+  std::vector<btVector3> pull_, omega_, velocity_;  ///< per segment: the pins' impulse, its change of rate
+  void pinShare(const btMultiBodyConstraintArray& rows, const btMultiBodyJacobianData& data, int bending, int held,
+                btScalar dt);
+  /// Makes this object's row r in the solver's array; returns its rate after the
+  /// unconstrained step.
+  btScalar ownRow(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data, const btContactSolverInfo& info,
+                  int r);
+  void response(const btMultiBodyConstraintArray& rows, const btMultiBodyJacobianData& data, int from, int to);
+  void pullStiffness(const btMultiBodyConstraintArray& rows, int held, int m, btScalar dt);
   std::vector<btSpatialForceVector> saved_;
   btScalar jointTension(int link) const;
   // the tick's solve, kept between ticks so the step allocates nothing once sized
-  std::vector<int> active_;      ///< the rows this tick, bending first
-  std::vector<btScalar> stiff_;  ///< each row's stiffness
+  std::vector<int> row_;         ///< the solve's unknowns: their rows in the solver's array (bending, pins, tension)
   Eigen::VectorXd gamma_;
   btAlignedObjectArray<btScalar> scratchR_;
   btAlignedObjectArray<btVector3> scratchV_;
@@ -75,7 +102,24 @@ class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
   Eigen::MatrixXd A_, S_, B_, BinvC_, product_;  ///< S_: the Schur complement of B_ (bending)
   Eigen::VectorXd rhs_, lambda_;
   Eigen::LDLT<Eigen::MatrixXd> ldlt_;
-  std::vector<int> response_;  ///< where each row's unit response lies in the solver's data
+};
+
+/// A point of a thread held to a rigid body (or to the world: no body) whose rows are
+/// made and solved by the thread's ThreadBending, with the chain's own (above); a plain
+/// btMultiBodyPoint2Point once that ThreadBending is gone. Its applied impulses, read
+/// after the step, are the whole of what it applied.
+class ThreadPin : public btMultiBodyPoint2Point {
+ public:
+  ThreadPin(ThreadBending* bending, int link, btRigidBody* body, const btVector3& pivotInLink,
+            const btVector3& pivotInBody);
+  ~ThreadPin() override;
+  void createConstraintRows(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data,
+                            const btContactSolverInfo& info) override;
+
+ private:
+  friend class ThreadBending;
+  ThreadBending* bending_;
+  btScalar applied_[3] = {0, 0, 0};  ///< what ThreadBending applied on each row this tick
 };
 
 }  // namespace mpm::bullet

@@ -136,6 +136,9 @@ btTransform threadSegmentTransform(const btMultiBody* thread, int segment);
 /// when `body` is null, with a btMultiBodyPoint2Point added to `world` (returned; it is
 /// deleted by destroySutureThread, or remove and delete it yourself). Its getAppliedImpulse
 /// (0..2) are the impulses of the last tick along -x, -y, -z: pinForce gives the force.
+/// On a thread from makeSutureThread the pin is solved with the thread's own implicit rows
+/// (bending, the tension's turn) in one direct solve each tick, not left to the solver's
+/// iterations: a thread pinned at its start holds 8 N at 1/960 s.
 btMultiBodyPoint2Point* pinThreadPoint(btMultiBodyDynamicsWorld* world, btMultiBody* thread, int point,
                                       btRigidBody* body, const btVector3& pivotInBody);
 /// The thread's first point to the needle body's tail: pinThreadPoint(world, thread, 0,
