@@ -52,7 +52,9 @@ btVector3 rotationVector(btQuaternion q);
 /// between one pin and a chain of stiff rows did not converge (a thread pinned at its
 /// start and pulled with 1 N at 1/960 s whipped with 50 iterations a tick and held 8 N
 /// with 1000). The pins' impulses found are applied like the rows' (the solver's
-/// iterations add what the contacts change) and added to what each pin reports.
+/// iterations add what the contacts change) and added to what each pin reports. A pin's
+/// rows to a rigid body take in that body's forces of the tick, which Bullet's rows
+/// between a multibody and a rigid body leave out.
 class ThreadPin;
 class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
  public:
