@@ -44,8 +44,9 @@ btVector3 rotationVector(btQuaternion q);
 /// transverse axes, stiffness T_s L and no stretch (the turn is measured from this tick's
 /// pose), join the same solve when a segment's turn would outrun the tick. T_s comes
 /// from Bullet's joint feedback (the thread's links' m_jointFeedback are this object's):
-/// the unconstrained pass of this tick, plus the pins' and contacts' share of the last.
-/// Being an action too, it reads that share after the step (updateAction).
+/// the unconstrained pass of this tick, plus the contacts' share of the last (being an
+/// action too, it reads that share after the step: updateAction), plus the pins' share of
+/// this tick, read from their impulses in the solve (below).
 ///
 /// The thread's pins (ThreadPin) join the same solve as hard rows: a thread held by a pin
 /// carries its tension only through the pin, and the solver's Gauss-Seidel iterations
