@@ -153,7 +153,7 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
   tension_[0] = links > 0 ? tension_[1] : 0;
   // The unknowns: the bending rows (3 a joint), the pins' (hard), the tension's (2 a
   // segment, below)
-  const int first = rows.size(), bending = stiffness_ > 0 ? 3 * links : 0;
+  const int first = rows.size(), bending = bendingRows();
   rhs_.resize(bending + 3 * (int)pinRows_.size() + 2 * (links + 1));
   row_.clear();
   for (int r = 0; r < bending; ++r) {
@@ -182,9 +182,7 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
     if (!pinRows_.empty()) {
       lambda_ = ldlt_.solve(rhs_.head(held));
       pinShare(rows, data, bending, held, dt);
-      for (int link = 0; link < links; ++link)
-        tension_[(size_t)link + 1] = free_[(size_t)link] + other_[(size_t)link] + own_[(size_t)link];
-      tension_[0] = links > 0 ? tension_[1] : 0;
+      sumTension();
     }
   }
   // The tension's rows only when a turn could outrun the tick (below); a thread whose
@@ -235,16 +233,21 @@ void ThreadBending::createConstraintRows(btMultiBodyConstraintArray& rows, btMul
     }
   }
   // the whole solve; with pins, again with the tension their impulses give (twice: the
-  // tension's rows then hold the pull a pin brings the same tick)
-  for (int pass = 0;; ++pass) {
-    product_ = A_.topLeftCorner(m, m);
-    product_.diagonal() += gamma_.head(m);
-    ldlt_.compute(product_);
-    lambda_ = ldlt_.solve(rhs_.head(m));
-    if (pinRows_.empty()) break;
-    pinShare(rows, data, bending, held, dt);
-    if (m == held || pass == 2) break;
-    pullStiffness(rows, held, m, dt);
+  // tension's rows then hold the pull a pin brings the same tick). Without the tension's
+  // rows it is B's, factored above (and solved, with pins).
+  if (m == held) {
+    if (pinRows_.empty()) lambda_ = ldlt_.solve(rhs_.head(m));
+  } else {
+    for (int pass = 0;; ++pass) {
+      product_ = A_.topLeftCorner(m, m);
+      product_.diagonal() += gamma_.head(m);
+      ldlt_.compute(product_);
+      lambda_ = ldlt_.solve(rhs_.head(m));
+      if (pinRows_.empty() || pass == 2) break;
+      pinShare(rows, data, bending, held, dt);
+      pullStiffness(rows, held, m, dt);
+    }
+    if (!pinRows_.empty()) pinShare(rows, data, bending, held, dt);
   }
   // The solution is applied as Bullet's warm start applies an impulse (to the body after
   // the solve, and to the solver's accumulator now); each of this object's rows then
@@ -303,7 +306,7 @@ void ThreadBending::response(const btMultiBodyConstraintArray& rows, const btMul
   // body's share for two rows of pins on the same body), for the unknowns from `from` up
   // to `to` against those before; a bending row's Jacobian is one joint axis, so its rate
   // is read off the response
-  const int bending = stiffness_ > 0 ? 3 * m_bodyA->getNumLinks() : 0, ndof = m_bodyA->getNumDofs() + 6;
+  const int bending = bendingRows(), ndof = m_bodyA->getNumDofs() + 6;
   A_.conservativeResize(to, to);
   for (int j = 0; j < to; ++j) {
     const btMultiBodySolverConstraint& cj = rows[row_[j]];
@@ -367,10 +370,15 @@ void ThreadBending::pinShare(const btMultiBodyConstraintArray& rows, const btMul
   }
 }
 
-void ThreadBending::pullStiffness(const btMultiBodyConstraintArray& rows, int held, int m, btScalar dt) {
-  for (int link = 0; link < m_bodyA->getNumLinks(); ++link)
+void ThreadBending::sumTension() {
+  const int links = m_bodyA->getNumLinks();
+  for (int link = 0; link < links; ++link)
     tension_[(size_t)link + 1] = free_[(size_t)link] + other_[(size_t)link] + own_[(size_t)link];
-  if (m_bodyA->getNumLinks() > 0) tension_[0] = tension_[1];
+  tension_[0] = links > 0 ? tension_[1] : 0;
+}
+
+void ThreadBending::pullStiffness(const btMultiBodyConstraintArray& rows, int held, int m, btScalar dt) {
+  sumTension();
   // a row under no tension (or compression) does nothing: its compliance is made huge
   const int links = m_bodyA->getNumLinks();
   for (int i = held; i < m; ++i) {

@@ -93,7 +93,11 @@ class ThreadBending : public btMultiBodyConstraint, public btActionInterface {
   btScalar ownRow(btMultiBodyConstraintArray& rows, btMultiBodyJacobianData& data, const btContactSolverInfo& info,
                   int r);
   void response(const btMultiBodyConstraintArray& rows, const btMultiBodyJacobianData& data, int from, int to);
+  /// Each segment's tension: this tick's unconstrained pass, the contacts' share, the pins'.
+  void sumTension();
   void pullStiffness(const btMultiBodyConstraintArray& rows, int held, int m, btScalar dt);
+  /// The bending springs' rows: 3 a joint, none for a limp thread.
+  int bendingRows() const { return stiffness_ > 0 ? 3 * m_bodyA->getNumLinks() : 0; }
   std::vector<btSpatialForceVector> saved_;
   btScalar jointTension(int link) const;
   // the tick's solve, kept between ticks so the step allocates nothing once sized
