@@ -153,8 +153,8 @@ TEST(Suturing, InsertionProfile) {
   }
   ASSERT_GE(rampX.size(), 5u);
   const LineFit ramp = fitLine(rampX, rampF);
-  double peak = 0;
-  for (size_t i = 0; i < puncture; ++i) peak = std::max(peak, in[i].force);
+  double peak = 0;  // up to the advance the tip broke in at the end of (blunt all through it)
+  for (size_t i = 0; i <= puncture; ++i) peak = std::max(peak, in[i].force);
   double after = 0;  // the mean over the 2 mm after breaking in
   for (size_t i = puncture + 1; i <= puncture + 80; ++i) after += in[i].force / 80.0;
   std::vector<double> x, f;  // from 1 mm past the puncture on

@@ -57,7 +57,7 @@ constexpr const char* kNeedlePass = R"({
 // (e) The pass: the suturing scene (assets/scenes/suturing.json, patched: the blocks of
 // PullingTheStitch, 1.25 cm deep, in its grid, gravity off, and a faster turn; the needle,
 // its driver, the thread and its path are the file's): a half-circle needle of 12 mm (a 100 g body driven by
-// a NeedleDriver, coupled with addNeedle; toughness G_c 200 J/m^2, puncture force 0.03 N)
+// a NeedleDriver, coupled with addNeedle; toughness G_c 200 J/m^2, puncture force 0.3 N)
 // turns 365 degrees about its centre 6 mm above the tops in 2.5 s: in through block 1,
 // under the 6 mm gap, out of block 2, until the eye 5 mm behind its tail is out. Its eye
 // draws a 3-0 thread (30 one-cell links, 0.05 g/m, added mass) from a knot over the wound.

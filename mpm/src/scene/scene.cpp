@@ -282,6 +282,6 @@ std::vector<float> Scene::segmentContactMasses(CurveId id) const {
 }
 bool Scene::tipInside(CurveId id) const {
   const auto held = impl_->reading("tipInside");
-  return impl_->curveOfKind(id, true, "tipInside").tipInside;
+  return impl_->curveOfKind(id, true, "tipInside").tipInside();
 }
 }  // namespace mpm

@@ -31,6 +31,17 @@ struct SlicerRecord {
 };
 using SlicerTable = SlotTable<SlicerRecord, SlicerId>;
 
+/// Where a needle's tip is. Outside the material it is blunt and presses the surface in
+/// until it breaks in; inside it opens a track (needleTipResistance); once it has been deep
+/// in the material (the half ball ahead of it full), a surface ahead of it is a far one,
+/// which the tip presses out blunt again until it breaks out (the second peak of a needle
+/// passing through tissue: Frick et al., J Biomech 2001).
+enum class TipState : uint8_t {
+  kOutside = 0,   ///< blunt: before it breaks in, or pressing a far surface out
+  kEntering = 1,  ///< broke in, the material ahead not yet all round it (or breaking out)
+  kDeep = 2,      ///< in the material, the half ball ahead of it full at least once
+};
+
 /// A curve as the scene keeps it: a needle (its state is the caller's, its tip's state
 /// the scene's) or a thread (its points and their velocities the caller's).
 struct CurveRecord {
@@ -38,7 +49,8 @@ struct CurveRecord {
   ArcDesc arc;              ///< a needle's
   LineSegmentsDesc thread;  ///< a thread's, its points and velocities as last set
   ShapeState state;         ///< a needle's
-  bool tipInside = false;   ///< a needle's tip broke in and has not come out since
+  TipState tip = TipState::kOutside;  ///< a needle's
+  bool tipInside() const { return tip != TipState::kOutside; }
   /// Per body: a needle's wire and tip, a thread's segments; about each body's centre (a
   /// needle's frame origin, a segment's midpoint)
   std::vector<ShapeImpulse> impulses;
@@ -78,7 +90,8 @@ BodyMap uploadShapes(const ShapeTable& shapes, const SlicerTable& slicers, const
 /// Reads the shapes' motion and the shapes' and slicers' impulses back after an advance
 /// (`map` from uploadShapes).
 /// A needle's tip breaks in when the force on it along its tangent reaches its
-/// punctureForce, and is out again when no material lies ahead of it over an advance of `dt`.
+/// punctureForce, and is out again when no material lies ahead of it over an advance of
+/// `dt`, or blunt again when, deep in the material, a surface comes within its reach (TipState).
 void downloadShapes(ShapeTable& shapes, SlicerTable& slicers, CurveTable& curves, const BodyMap& map, float dt,
                     SimBackend& backend);
 

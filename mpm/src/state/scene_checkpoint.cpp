@@ -202,7 +202,7 @@ void writeCurves(Writer& w, const CurveTable& curves) {
     out.put((uint8_t)(c.needle ? 1 : 0));
     out.put(c.arc);
     out.put(c.state);
-    out.put((uint8_t)(c.tipInside ? 1 : 0));
+    out.put((uint8_t)c.tip);
     const LineSegmentsDesc& t = c.thread;
     out.putArray(t.points);
     out.putArray(t.velocities);
@@ -222,7 +222,10 @@ void readCurves(Reader& r, CurveTable& curves) {
     c.needle = in.get<uint8_t>("a curve's kind") != 0;
     c.arc = in.get<ArcDesc>("a needle");
     c.state = in.get<ShapeState>("a needle's state");
-    c.tipInside = in.get<uint8_t>("a needle's tip") != 0;
+    const uint8_t tip = in.get<uint8_t>("a needle's tip");
+    if (tip > (uint8_t)TipState::kDeep)
+      throw CheckpointError(CheckpointError::Reason::Malformed, "a needle's tip state is " + std::to_string(tip) + ", none of 0, 1, 2");
+    c.tip = (TipState)tip;
     LineSegmentsDesc& t = c.thread;
     in.getArray(t.points, "a thread's points");
     in.getArray(t.velocities, "a thread's velocities");

@@ -51,7 +51,8 @@ void appendNeedle(const ArcDesc& d, const ShapeState& state, bool tipInside, flo
   arc.frictionReach = R;
   arc.frictionRate = d.friction * trackPressurePerDensity * 3.14159265f * 2.f * d.wireRadius / (3.14159265f * R * R / 3.f);
   parts.push_back(arc);
-  // the tip: a blunt sphere of the wire's radius until it breaks in
+  // the tip: a blunt sphere of the wire's radius until it breaks in, holding the nodes
+  // within kTipReach dx of its point
   ShapeDesc point;
   Geometry g = Geometry::sphere(d.wireRadius);
   g.localPose.position = {d.radius * std::cos(d.endAngle), d.radius * std::sin(d.endAngle), 0.f};
@@ -61,7 +62,7 @@ void appendNeedle(const ArcDesc& d, const ShapeState& state, bool tipInside, flo
   point.contact.mode = ContactMode::Sticky;
   const int tipBody = (int)bodies.size();
   bodies.push_back(makeBody(point, state, 0.f));
-  PartView tip = makePart(g, point, state, tipBody, minHalfThickness, near);
+  PartView tip = makePart(g, point, state, tipBody, kTipReach * dx, near);
   tip.type = tipInside ? kPartTipInside : kPartTip;
   tip.tangent = {-std::sin(d.endAngle), std::cos(d.endAngle), 0.f};
   parts.push_back(tip);

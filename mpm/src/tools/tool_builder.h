@@ -56,6 +56,16 @@ constexpr float kCurveReach = 0.75f;
 /// thick would, and holds that many more nodes (its added mass).
 constexpr float kThreadReach = 1.5f;
 
+/// Reach of a needle's blunt tip (before it breaks in) about its point, in cells. A
+/// particle moves with the 27 nodes about it (the quadratic B-spline's 1.5 dx), so a tip
+/// holding only the nodes within 0.75 dx of its point moved the particles ahead of it
+/// slower than itself: they slipped past it by interpolation, one node layer at a time,
+/// and the force on the tip rose and fell with each (0.05-0.27 N over 19 mm into a 50 kPa
+/// block, dx 2.5 mm): it never pressed the surface in to a surgical puncture force. At
+/// 1.5 dx the particles it touches move with it, the surface dimples and the force rises
+/// steadily (to 1 N at 5 mm) until the tip breaks in (tests/test_needle_puncture.cpp).
+constexpr float kTipReach = 1.5f;
+
 /// Radius about a needle's centre line within which its shaft's friction reaches the
 /// nodes, in cells (PartView::frictionReach: enough nodes across it that their sum does not
 /// flicker as the wire moves between them).
@@ -64,7 +74,8 @@ constexpr float kShaftFrictionReach = 1.5f;
 /// A needle as two bodies, appended to `bodies` and `parts`: its wire (kContactCurve, a
 /// kPartArc whose shaft friction takes the material's pressure on the wire as
 /// `trackPressurePerDensity` [m^2/s^2] times its density) and its tip (a blunt frictional
-/// sphere, or with `tipInside` a kPartTipInside), at `state` (of the arc's frame).
+/// sphere whose contact reaches kTipReach dx, or with `tipInside` a kPartTipInside), at
+/// `state` (of the arc's frame).
 void appendNeedle(const ArcDesc& desc, const ShapeState& state, bool tipInside, float minHalfThickness, float dx,
                   float trackPressurePerDensity, Vec3f near, std::vector<BodyView>& bodies, std::vector<PartView>& parts);
 /// A thread as one body per segment (kContactCurve capsules) through `points` moving at
