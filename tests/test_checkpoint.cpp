@@ -410,6 +410,35 @@ TEST(SceneCheckpointFields, RefusesParticlesOutsideTheGrid) {
   EXPECT_NO_THROW(t.scene.loadFromMemory(good));
 }
 
+// A needle's tip state outside the three there are (outside, entering, deep) in a
+// checkpoint whose CRC holds is refused, naming it; the scene is left as it was.
+TEST(SceneCheckpointFields, RefusesATipStateThatIsNone) {
+  TestScene t(SolverType::MlsMpm);
+  ArcDesc needle;
+  needle.pose.position = {0.03f, 0.15f, 0.01f};  // above the block, touching nothing
+  t.scene.addCurve(needle);
+  run(t, 2);
+  const std::vector<uint8_t> good = t.scene.saveToMemory();
+  // the needle's state as written, the tip's byte after it (find_end: the ArcDesc before
+  // it ends with the same pose and velocities)
+  const ShapeState state{needle.pose, needle.linearVelocity, needle.angularVelocity};
+  const auto at = std::find_end(good.begin() + (long)checkpoint::kHeaderBytes, good.end(), (const uint8_t*)&state,
+                                (const uint8_t*)&state + sizeof(state));
+  ASSERT_NE(at, good.end());
+  const size_t tip = (size_t)(at - good.begin()) + sizeof(state);
+  ASSERT_EQ(good[tip], 0) << "the tip, outside";
+  const Snapshot before = snapshot(t);
+  try {
+    t.scene.loadFromMemory(patched(good, tip, (uint8_t)3));
+    ADD_FAILURE() << "a tip state of 3 was loaded";
+  } catch (const CheckpointError& e) {
+    EXPECT_EQ(e.reason(), Reason::Malformed) << e.what();
+    EXPECT_NE(std::string(e.what()).find("tip state is 3"), std::string::npos) << e.what();
+  }
+  expectIdentical(snapshot(t), before, "a tip state that is none");
+  EXPECT_NO_THROW(t.scene.loadFromMemory(patched(good, tip, (uint8_t)2)));
+}
+
 // A loaded shape must pass addShape's own check (fuzz_checkpoint, in CI: a part whose
 // type read Mesh but which had no grid was dereferenced when the shape was built, a null
 // pointer): the test scene's sphere turned into a Mesh part is refused, naming the field.

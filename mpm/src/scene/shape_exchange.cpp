@@ -127,7 +127,7 @@ namespace {
 /// ball is full) at which the tip counts as deep in the material, and below which a deep
 /// tip has a surface within its reach ahead. Measured inside a block (dx 2.5 mm) the
 /// presence averaged over an advance of 5 ms ranged 0.63-1.39; leaving through a surface
-/// it fell through 0.34.
+/// it fell to 0.30-0.34.
 constexpr float kTipDeepPresence = 0.75f;
 constexpr float kTipSurfacePresence = 0.4f;
 

@@ -63,7 +63,7 @@ constexpr float kThreadReach = 1.5f;
 /// and the force on the tip rose and fell with each (0.05-0.27 N over 19 mm into a 50 kPa
 /// block, dx 2.5 mm): it never pressed the surface in to a surgical puncture force. At
 /// 1.5 dx the particles it touches move with it, the surface dimples and the force rises
-/// steadily (to 1 N at 5 mm) until the tip breaks in (tests/test_needle_puncture.cpp).
+/// steadily (to 1 N over 5-6 mm) until the tip breaks in (tests/test_needle_puncture.cpp).
 constexpr float kTipReach = 1.5f;
 
 /// Radius about a needle's centre line within which its shaft's friction reaches the
@@ -73,7 +73,7 @@ constexpr float kShaftFrictionReach = 1.5f;
 
 /// A needle as two bodies, appended to `bodies` and `parts`: its wire (kContactCurve, a
 /// kPartArc whose shaft friction takes the material's pressure on the wire as
-/// `trackPressurePerDensity` [m^2/s^2] times its density) and its tip (a blunt frictional
+/// `trackPressurePerDensity` [m^2/s^2] times its density) and its tip (a blunt sticky
 /// sphere whose contact reaches kTipReach dx, or with `tipInside` a kPartTipInside), at
 /// `state` (of the arc's frame).
 void appendNeedle(const ArcDesc& desc, const ShapeState& state, bool tipInside, float minHalfThickness, float dx,
