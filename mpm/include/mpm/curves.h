@@ -12,7 +12,10 @@
 ///   material's Material::fractureToughness G_c (a force of G_c times the wire's diameter
 ///   while it advances through material), and the shaft inside the material feels Coulomb
 ///   friction from the material's pressure on it. Out of the material again, the tip is
-///   blunt until it breaks into the next surface.
+///   blunt until it breaks into the next surface; deep in the material, a surface ahead of
+///   it is a far one, which the blunt tip presses out before it emerges (the second peak
+///   of a needle passing through tissue). Before it breaks in the tip holds the material
+///   within 1.5 dx of its point: the surface dimples over a cell, not over the needle.
 /// - LineSegmentsDesc: a thread, a polyline whose points are set before each advance (from
 ///   the links of a Bullet multibody chain: mpm_bullet/suture.h); each segment is its own
 ///   body and reports its own impulse.
