@@ -1,7 +1,7 @@
 #pragma once
 // What the suture tests share (test_suture_thread, test_thread_coupling,
 // test_suturing_bullet): the thread's tick and iterations, a test thread, a watch on its
-// links and pins over a run, and the thread-in-tissue tests' grid and blocks.
+// links and pins over a run (the thread-in-tissue tests' grid and blocks: wound_gap.h).
 #include <BulletDynamics/Featherstone/btMultiBody.h>
 #include <btBulletDynamicsCommon.h>
 
@@ -11,6 +11,7 @@
 
 #include "mpm/scene.h"
 #include "mpm_bullet/suture.h"
+#include "wound_gap.h"
 
 namespace mpm::test {
 
@@ -71,27 +72,5 @@ struct ThreadWatch {
     pin = std::max(pin, (double)((p[0] - d.start).length() / L));
   }
 };
-
-/// The thread-in-tissue tests' scene: a grid of 2.5 mm cells round a block, gravity off.
-inline SceneSettings threadTissueSettings() {
-  SceneSettings settings;
-  settings.domain.lower = {-0.04f, -0.02f, -0.02f};
-  settings.domain.upper = {0.04f, 0.04f, 0.02f};
-  settings.dx = 0.0025f;
-  settings.gravity = {0.f, 0.f, 0.f};
-  settings.backend = Backend::Cpu;
-  return settings;
-}
-
-/// A tissue block of half extents `half` at `center` (E, nu, rho).
-inline ParticleObjectDesc tissueBlock(Vec3f half, Vec3f center, float E, float nu, float rho) {
-  ParticleObjectDesc block;
-  block.center = center;
-  block.halfExtents = half;
-  block.material.youngsModulus = E;
-  block.material.poissonRatio = nu;
-  block.material.density = rho;
-  return block;
-}
 
 }  // namespace mpm::test

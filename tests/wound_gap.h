@@ -1,6 +1,6 @@
 #pragma once
-// The suturing tests' wound: two tissue blocks side by side, a gap across x between them,
-// glued to a plate at their bases.
+// The suturing tests' tissue: their grid and blocks, and the wound, two tissue blocks side
+// by side, a gap across x between them, glued to a plate at their bases.
 #include <algorithm>
 #include <vector>
 
@@ -30,6 +30,28 @@ inline float woundGap(const Scene& scene, ParticleObjectId left, ParticleObjectI
   for (const Vec3f& x : b)
     if (x.y > 0.01f) outer = std::min(outer, x.x);
   return outer - inner;
+}
+
+/// The suturing tests' scene: a grid of 2.5 mm cells round a block (the demo's), gravity off.
+inline SceneSettings threadTissueSettings() {
+  SceneSettings settings;
+  settings.domain.lower = {-0.04f, -0.02f, -0.02f};
+  settings.domain.upper = {0.04f, 0.04f, 0.02f};
+  settings.dx = 0.0025f;
+  settings.gravity = {0.f, 0.f, 0.f};
+  settings.backend = Backend::Cpu;
+  return settings;
+}
+
+/// A tissue block of half extents `half` at `center` (E, nu, rho).
+inline ParticleObjectDesc tissueBlock(Vec3f half, Vec3f center, float E, float nu, float rho) {
+  ParticleObjectDesc block;
+  block.center = center;
+  block.halfExtents = half;
+  block.material.youngsModulus = E;
+  block.material.poissonRatio = nu;
+  block.material.density = rho;
+  return block;
 }
 
 }  // namespace mpm::test
